@@ -1,0 +1,280 @@
+"""The ``peridyn`` command: run, check, plugins, schema, convert, new-plugin."""
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+import time
+from pathlib import Path
+
+from .errors import ExitCode, InputError, InstabilityError, PeridynError
+
+log = logging.getLogger("peridyn")
+
+
+def _setup_logging(verbosity: int, rank: int = 0) -> None:
+    level = logging.WARNING if verbosity < 0 else logging.INFO if verbosity == 0 else logging.DEBUG
+    if rank != 0:
+        level = logging.ERROR
+    root = logging.getLogger("peridyn")
+    root.handlers.clear()
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("%(message)s" if verbosity <= 0 else "%(levelname)s %(name)s: %(message)s"))
+    root.addHandler(handler)
+    root.setLevel(level)
+    root.propagate = False
+
+
+def _report_input_error(exc: InputError) -> None:
+    for line in exc.one_line().splitlines():
+        print(f"error: {line}", file=sys.stderr)
+
+
+# ------------------------------------------------------------------------------------------------
+def cmd_run(args) -> int:
+    from .core.deck import load_deck
+    from .core.engine import Simulation
+    from .core.parallel import get_comm
+
+    comm = get_comm()
+    _setup_logging(args.verbose - args.quiet, comm.rank)
+    wall0 = time.perf_counter()
+    deck = load_deck(args.deck)
+    output_dir = Path(args.output_dir) if args.output_dir else Path.cwd()
+    sim = Simulation(deck, comm=comm, output_dir=output_dir, progress=not args.no_progress)
+    _log_setup(sim)
+    try:
+        for entry in deck.solvers:
+            solver = entry.cls(entry.params, section=entry.section)
+            solver.run(sim)
+    finally:
+        sim.outputs.close()
+    _log_summary(sim, time.perf_counter() - wall0)
+    return ExitCode.OK
+
+
+def _log_setup(sim) -> None:
+    nl = sim.bonds
+    log.info(
+        "%s: %d points in %d block(s), %d bonds; set-up %.2f s (mesh %.2f s, neighbors %.2f s)",
+        Path(sim.deck.file).name,
+        sim.num_global,
+        len(sim.blocks),
+        sim.comm.allreduce_sum(nl.num_bonds),
+        sim.timers.get("setup", 0.0),
+        sim.timers.get("read mesh", 0.0),
+        sim.timers.get("neighbor search", 0.0),
+    )
+
+
+def _log_summary(sim, wall: float) -> None:
+    for st in sim.stats.get("solvers", []):
+        steps = st.get("steps", 0)
+        rate = st["bond_evaluations"] / st["wall"] if st.get("wall") else 0.0
+        msg = f"{st['section']} ({st['method']}): {steps} steps in {st['wall']:.2f} s"
+        if steps and st.get("wall"):
+            msg += f", {rate / 1e6:.1f} M bond evaluations/s, {st['point_steps'] / st['wall'] / 1e6:.2f} M point-steps/s"
+        log.info(msg)
+        e = st.get("energy")
+        if e:
+            scale = max(abs(e["kinetic_initial"]), abs(e["kinetic"]), abs(e["stored_from_work"]), abs(e["external_work"]) + abs(e["constraint_work"]), 1e-300)
+            log.info(
+                "  energy: kinetic %.6g -> %.6g, stored %+.6g, work by loads %+.6g, by prescribed motion %+.6g; balance error %.3g (%.2g%% of the energy scale, worst %.2g%%)",
+                e["kinetic_initial"],
+                e["kinetic"],
+                e["stored_from_work"],
+                e["external_work"],
+                e["constraint_work"],
+                e["balance_error"],
+                100 * abs(e["balance_error"]) / scale,
+                100 * e["max_relative_error"],
+            )
+    files = [str(w.path.name) for w in sim.outputs.writers if w.frames]
+    log.info("done in %.2f s; wrote %s", wall, ", ".join(files) if files else "no output")
+
+
+# ------------------------------------------------------------------------------------------------
+def cmd_check(args) -> int:
+    import numpy as np
+
+    from .core.deck import load_deck
+    from .core.engine import Simulation
+
+    _setup_logging(args.verbose - args.quiet)
+    deck = load_deck(args.deck)
+    sim = Simulation(deck, output_dir=Path.cwd(), progress=False)
+    nl = sim.bonds
+    counts = nl.counts()
+    vol = sim.fields["Volume"]
+    print(f"{deck.file}: valid")
+    print(f"  discretization: {deck.discretization.type}, {sim.num_global} points, {nl.num_bonds} bonds")
+    if counts.size:
+        print(f"  neighbors per point: min {counts.min()}, mean {counts.mean():.1f}, max {counts.max()}")
+    for blk in sim.blocks:
+        n = blk.stop - blk.start
+        if n:
+            spacing = float(np.mean(np.cbrt(vol[blk.start : blk.stop])))
+            h = sim.horizon_local[blk.start : blk.stop]
+            ratio = f"{float(np.mean(h)) / spacing:.3g}" if spacing > 0 else "?"
+        else:
+            ratio = "-"
+        hz = f"{blk.horizon:.6g}" if blk.horizon is not None else f"{blk.horizon_text!r}"
+        dmg = f", damage {blk.damage.name}" if blk.damage is not None else ""
+        print(f"  block {blk.name} (id {blk.block_id}): {n} points, material {blk.material.name}{dmg}, horizon {hz}, horizon/spacing {ratio}")
+    try:
+        dt = sim.critical_time_step()
+        print(f"  estimated stable time step (Verlet): {dt:.6g}")
+    except Exception as exc:  # a material without a bulk modulus
+        print(f"  estimated stable time step: unavailable ({exc})")
+    for entry in deck.solvers:
+        print(f"  solver {entry.section}: {entry.method}")
+    for w in sim.outputs.writers:
+        print(f"  output {w.entry.section}: {w.path.name}, every {w.frequency} step(s), {len(w.names)} variable(s)")
+    mem = sim.memory_bytes()
+    print(f"  memory estimate: {mem / 2**20:.1f} MiB for fields and neighbor lists")
+    return ExitCode.OK
+
+
+# ------------------------------------------------------------------------------------------------
+def cmd_plugins(args) -> int:
+    from .core.params import describe_params
+    from .plugins.manager import KINDS, get_registry
+
+    reg = get_registry()
+    for kind, (_, human, _) in KINDS.items():
+        names = reg.names(kind)
+        print(f"{human}s ({len(names)}):")
+        for name in names:
+            entry = reg.entry(kind, name)
+            try:
+                cls = entry.load()
+            except Exception as exc:
+                print(f"  {name}  [{entry.plugin}]  failed to load: {exc}")
+                continue
+            print(f"  {name}  [{entry.plugin}]")
+            params = getattr(cls, "Params", None)
+            if params is None or args.brief:
+                continue
+            for row in describe_params(params):
+                req = "required" if row["required"] else f"default {row['default']!r}"
+                desc = f" - {row['description']}" if row["description"] else ""
+                print(f"      {row['name']}: {row['type']} ({req}){desc}")
+    if reg.failed:
+        print("plugins that failed to import:")
+        for name, err in reg.failed.items():
+            print(f"  {name}: {err}")
+    return ExitCode.OK
+
+
+def cmd_schema(args) -> int:
+    from .core.schema import deck_json_schema
+
+    text = json.dumps(deck_json_schema(), indent=2)
+    if args.output:
+        Path(args.output).write_text(text + "\n")
+    else:
+        print(text)
+    return ExitCode.OK
+
+
+def cmd_convert(args) -> int:
+    from .io.deckfile import convert
+
+    convert(args.input, args.output)
+    print(f"wrote {args.output}")
+    return ExitCode.OK
+
+
+def cmd_new_plugin(args) -> int:
+    from .plugins.scaffold import new_plugin
+
+    path = new_plugin(args.name, kind=args.kind, directory=Path(args.directory))
+    print(f"created {path}")
+    print(f"  pip install -e {path} && pytest {path}")
+    return ExitCode.OK
+
+
+# ------------------------------------------------------------------------------------------------
+def build_parser() -> argparse.ArgumentParser:
+    from . import __version__
+
+    p = argparse.ArgumentParser(prog="peridyn", description="Peridynamics: run Peridigm and peridyn decks.")
+    p.add_argument("--version", action="version", version=f"peridyn {__version__}")
+    p.add_argument("--debug", action="store_true", help="show tracebacks")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    def common(sp):
+        sp.add_argument("-v", "--verbose", action="count", default=0, help="more output")
+        sp.add_argument("-q", "--quiet", action="count", default=0, help="less output")
+        sp.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help="show tracebacks")
+
+    r = sub.add_parser("run", help="run a deck (YAML or Peridigm XML)")
+    r.add_argument("deck")
+    r.add_argument("--output-dir", help="where output files go (default: the current folder)")
+    r.add_argument("--no-progress", action="store_true", help="no progress bar")
+    common(r)
+    r.set_defaults(func=cmd_run)
+
+    c = sub.add_parser("check", help="validate a deck and describe the model without running it")
+    c.add_argument("deck")
+    common(c)
+    c.set_defaults(func=cmd_check)
+
+    pl = sub.add_parser("plugins", help="list every model with its parameters")
+    pl.add_argument("--brief", action="store_true", help="names only")
+    pl.set_defaults(func=cmd_plugins)
+
+    s = sub.add_parser("schema", help="JSON Schema of the deck format, installed plugins included")
+    s.add_argument("-o", "--output", help="write to a file")
+    s.set_defaults(func=cmd_schema)
+
+    cv = sub.add_parser("convert", help="convert a Peridigm XML deck to YAML")
+    cv.add_argument("input")
+    cv.add_argument("output")
+    cv.set_defaults(func=cmd_convert)
+
+    n = sub.add_parser("new-plugin", help="create a plugin package skeleton")
+    n.add_argument("name", help="package name, e.g. my_material")
+    n.add_argument("--kind", choices=("material", "damage", "contact", "compute"), default="material")
+    n.add_argument("--directory", default=".", help="where to create it")
+    n.set_defaults(func=cmd_new_plugin)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    debug = args.debug
+    if not hasattr(args, "verbose"):
+        args.verbose, args.quiet = 0, 0
+    try:
+        return int(args.func(args))
+    except InputError as exc:
+        if debug:
+            raise
+        _report_input_error(exc)
+        return int(ExitCode.INPUT_ERROR)
+    except InstabilityError as exc:
+        if debug:
+            raise
+        print(f"error: {exc}", file=sys.stderr)
+        print("the output written so far is kept and readable", file=sys.stderr)
+        return int(ExitCode.UNSTABLE)
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return int(ExitCode.INTERRUPTED)
+    except PeridynError as exc:
+        if debug:
+            raise
+        print(f"error: {exc}", file=sys.stderr)
+        return int(exc.exit_code)
+    except Exception as exc:  # a bug: say so, show the traceback only with --debug
+        if debug:
+            raise
+        print(f"internal error: {type(exc).__name__}: {exc} (run with --debug for the traceback; please report it)", file=sys.stderr)
+        return int(ExitCode.FAILURE)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,207 @@
+"""Boundary and initial conditions, with Peridigm's semantics (PERIDIGM_SEMANTICS.md §1.4, §6.4, §7).
+
+Each ``Type`` is a plugin class; the engine calls the class's hooks at the places Peridigm does:
+
+* initial conditions once, at set-up, with t = 0, in deck order;
+* kinematic conditions (prescribed displacement / temperature) at every step with
+  ``(t_cur, t_prev)``; increments do nothing when ``t_cur == t_prev``;
+* force contributions (body force): the external force density is zeroed, then every body
+  force sets its components at ``t_cur``.
+
+Expressions are evaluated at the points' *reference* coordinates.
+"""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, ClassVar
+
+import numpy as np
+from pydantic import Field, field_validator
+
+from .params import ModelParams
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .engine import Simulation
+
+COMPONENT = {"x": 0, "y": 1, "z": 2}
+
+
+class BCParams(ModelParams):
+    type: str = Field(alias="Type", description="condition type (case and spaces do not matter)")
+    node_set: str = Field(alias="Node Set", description="a node set defined in Boundary Conditions or by the mesh")
+    coordinate: str = Field("x", alias="Coordinate", description="component: x, y or z (scalar fields: x or omitted)")
+    value: str | float = Field(alias="Value", description="expression in x, y, z, t (reference coordinates, time)")
+
+    @field_validator("value", mode="before")
+    @classmethod
+    def _int_value(cls, v):
+        # Peridigm rejects an int-typed Value; accepting it as the number it is costs nothing
+        if isinstance(v, int) and not isinstance(v, bool):
+            return float(v)
+        return v
+
+    @field_validator("coordinate")
+    @classmethod
+    def _coordinate(cls, v: str) -> str:
+        c = v.strip().lower()
+        if c not in COMPONENT:
+            raise ValueError(f"Coordinate must be x, y or z (got {v!r})")
+        return c
+
+    @property
+    def text(self) -> str:
+        """The Value as expression text (a number keeps its full precision; see
+        docs/peridigm-differences.md)."""
+        return repr(self.value) if isinstance(self.value, float) else self.value
+
+
+class BoundaryCondition:
+    """One deck entry of ``Boundary Conditions``. Subclasses set ``stage`` and override the hook
+    of that stage. ``self.points`` are the local indices (owned points) of the node set."""
+
+    name: ClassVar[str]
+    Params: ClassVar[type[BCParams]] = BCParams
+    #: "initial", "kinematic" or "force"
+    stage: ClassVar[str]
+    #: what the condition acts on: "displacement", "velocity", "temperature", "body_force"
+    target: ClassVar[str]
+    scalar: ClassVar[bool] = False
+
+    def __init__(self, params: BCParams, *, entry_name: str = "") -> None:
+        from .expressions import compile_expression
+
+        self.params = params
+        self.entry_name = entry_name
+        self.expr = compile_expression(params.text, ("x", "y", "z", "t"))
+        self.component = COMPONENT[params.coordinate]
+        self.points = np.zeros(0, dtype=np.int64)
+        self._x = np.zeros((0, 3))
+
+    @classmethod
+    def check(cls, params: BCParams) -> list[str]:
+        """Problems beyond the schema (one message each)."""
+        from .expressions import ExpressionError, compile_expression
+
+        problems = []
+        try:
+            compile_expression(params.text, ("x", "y", "z", "t"))
+        except ExpressionError as exc:
+            problems.append(f"Value: {exc}")
+        if cls.scalar and params.coordinate != "x":
+            problems.append(f"{cls.name} acts on a scalar field; omit Coordinate or use 'x'")
+        return problems
+
+    def bind(self, points: np.ndarray, x: np.ndarray) -> None:
+        """Attach the local point indices of the node set and their reference coordinates."""
+        self.points = points
+        self._x = x[points]
+
+    def evaluate(self, t: float) -> np.ndarray:
+        """The expression at the node set's reference coordinates, time ``t`` (shape (k,))."""
+        x = self._x
+        value = self.expr(x=x[:, 0], y=x[:, 1], z=x[:, 2], t=t)
+        return np.broadcast_to(np.asarray(value, dtype=float), (len(self.points),))
+
+    # hooks (override one) ------------------------------------------------------------------
+    def apply_initial(self, sim: "Simulation") -> None:  # pragma: no cover - interface
+        raise NotImplementedError
+
+    def apply_kinematic(self, sim: "Simulation", t: float, t_prev: float) -> None:  # pragma: no cover
+        raise NotImplementedError
+
+    def apply_force(self, sim: "Simulation", t: float) -> None:  # pragma: no cover
+        raise NotImplementedError
+
+
+class InitialVelocity(BoundaryCondition):
+    name = "INITIAL_VELOCITY"
+    stage = "initial"
+    target = "velocity"
+
+    def apply_initial(self, sim: "Simulation") -> None:
+        sim.fields["Velocity"][self.points, self.component] = self.evaluate(0.0)
+
+
+class InitialDisplacement(BoundaryCondition):
+    name = "INITIAL_DISPLACEMENT"
+    stage = "initial"
+    target = "displacement"
+
+    def apply_initial(self, sim: "Simulation") -> None:
+        u = sim.fields["Displacement"]
+        u[self.points, self.component] = self.evaluate(0.0)
+        y = sim.fields["Coordinates"]
+        x = sim.fields["Model_Coordinates"]
+        y[self.points, self.component] = x[self.points, self.component] + u[self.points, self.component]
+
+
+class InitialTemperature(BoundaryCondition):
+    """Sets the temperature once; it does not change the temperature change that drives
+    thermal expansion (Peridigm's semantics)."""
+
+    name = "INITIAL_TEMPERATURE"
+    stage = "initial"
+    target = "temperature"
+    scalar = True
+
+    def apply_initial(self, sim: "Simulation") -> None:
+        sim.fields["Temperature"][self.points] = self.evaluate(0.0)
+
+
+class PrescribedDisplacement(BoundaryCondition):
+    """Displacement prescribed through the velocity: on its components,
+    ``v = (f(t) - f(t_prev)) / (t - t_prev)`` and the increment ``du = f(t) - f(t_prev)``; when
+    the two values are exactly equal (a time-independent value) the previous value is replaced
+    by the current displacement, so the value becomes an absolute target."""
+
+    name = "PRESCRIBED_DISPLACEMENT"
+    stage = "kinematic"
+    target = "displacement"
+
+    def increment(self, sim: "Simulation", t: float, t_prev: float) -> np.ndarray:
+        c = self.evaluate(t)
+        p = self.evaluate(t_prev)
+        du = c - p
+        same = du == 0.0
+        if np.any(same):
+            u = sim.fields["Displacement"][self.points, self.component]
+            du = np.where(same, c - u, du)
+        return du
+
+    def apply_kinematic(self, sim: "Simulation", t: float, t_prev: float) -> None:
+        if t == t_prev:
+            return
+        du = self.increment(sim, t, t_prev)
+        sim.fields["Velocity"][self.points, self.component] = du * (1.0 / (t - t_prev))
+        if sim.delta_u is not None:
+            sim.delta_u[self.points, self.component] = du
+
+
+class PrescribedTemperature(BoundaryCondition):
+    """Sets T = f(x, t) at every application and, when time advanced, the temperature change
+    dT = f(x, t) - f(x, 0) that drives thermal expansion."""
+
+    name = "PRESCRIBED_TEMPERATURE"
+    stage = "kinematic"
+    target = "temperature"
+    scalar = True
+
+    def apply_kinematic(self, sim: "Simulation", t: float, t_prev: float) -> None:
+        value = self.evaluate(t)
+        sim.fields["Temperature"][self.points] = value
+        if t != t_prev:
+            sim.fields["Temperature_Change"][self.points] = value - self.evaluate(0.0)
+
+
+class BodyForce(BoundaryCondition):
+    """External force density (force per unit volume) on a node set."""
+
+    name = "BODY_FORCE"
+    stage = "force"
+    target = "body_force"
+
+    def apply_force(self, sim: "Simulation", t: float) -> None:
+        sim.fields["External_Force_Density"][self.points, self.component] = self.evaluate(t)
+
+
+BUILTIN_CONDITIONS = (InitialVelocity, InitialDisplacement, InitialTemperature, PrescribedDisplacement, PrescribedTemperature, BodyForce)
+

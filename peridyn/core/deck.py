@@ -1,0 +1,511 @@
+"""Input decks: load (YAML or Peridigm XML), validate in two phases, return a :class:`Deck`.
+
+Phase 1 checks the core structure (sections, blocks, node sets, boundary conditions, solvers,
+outputs). Phase 2 validates every material, damage model, contact model, compute class, solver
+and discretization entry with the ``Params`` of the plugin its name selects. Every problem is
+collected; all of them are raised together, each naming the file and the deck path.
+
+Peridigm's conventions are honoured: any top-level section whose name contains ``Solver`` is a
+solver run in deck order, any containing ``Output`` an output; boundary-condition ``Type`` and
+node-set names are matched after "tidying" (upper case, spaces as ``_``); an entry of
+``Boundary Conditions`` whose tidied name contains ``NODE_SET`` defines a node set.
+"""
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from pydantic import Field
+
+from ..errors import InputError, raise_collected
+from ..plugins.manager import Registry, get_registry
+from .params import ModelParams
+from .validation import validate_params
+
+log = logging.getLogger("peridyn.deck")
+
+#: solver methods in the order Peridigm checks them inside a solver section
+SOLVER_METHOD_ORDER = ("Verlet", "QuasiStatic", "NOXQuasiStatic", "Implicit", "ImplicitDiffusion")
+
+KNOWN_SECTIONS = (
+    "Discretization",
+    "Materials",
+    "Damage Models",
+    "Blocks",
+    "Boundary Conditions",
+    "Compute Class Parameters",
+    "Data Loader",
+    "Contact",
+    "Restart",
+    "Multiphysics",
+)
+#: top-level keys Peridigm reads that change nothing here; accepted with a warning
+IGNORED_TOP_LEVEL = {
+    "Verbose": "verbosity is set with --verbose/--quiet",
+    "Enable Bond-Associated Hypoelastic Model": "no model here reads it",
+}
+#: Peridigm sections that peridyn does not implement yet
+UNSUPPORTED_SECTIONS = {
+    "Restart": "restart is not supported yet",
+    "Multiphysics": "multiphysics is not supported yet",
+}
+
+
+def tidy(name: str) -> str:
+    """Peridigm's ``tidy_string``: upper case, trim spaces, remaining spaces become ``_``."""
+    return str(name).upper().strip(" ").replace(" ", "_")
+
+
+# ------------------------------------------------------------------------------------------------
+# Core section schemas (phase 1)
+# ------------------------------------------------------------------------------------------------
+class BlockParams(ModelParams):
+    block_names: str = Field(alias="Block Names", description="space-separated block names, e.g. 'block_1 block_2' (or 'default')")
+    material: str = Field(alias="Material", description="name of an entry of Materials")
+    damage_model: str | None = Field(None, alias="Damage Model", description="name of an entry of Damage Models")
+    horizon: float | str | None = Field(
+        None,
+        alias="Horizon",
+        description="horizon (length): a number for a constant horizon, or an expression in x, y, z for a variable one",
+    )
+
+
+class OutputParams(ModelParams):
+    output_file_type: str = Field("ExodusII", alias="Output File Type", description="only ExodusII")
+    output_format: str = Field("BINARY", alias="Output Format", description="only BINARY")
+    output_filename: str = Field("dump", alias="Output Filename", description="base name; '.e' (or '.h') is appended")
+    output_frequency: int = Field(-1, alias="Output Frequency", description="write every n-th call (steps); -1 writes nothing")
+    initial_output_step: int = Field(1, alias="Initial Output Step", description="first write counter that may write")
+    final_output_step: int = Field(2**31 - 2, alias="Final Output Step", description="last write counter that may write (minus one)")
+    parallel_write: bool = Field(True, alias="Parallel Write", description="accepted; one merged file is always written")
+    bond_family: bool = Field(False, alias="Bond Family", description="accepted for compatibility")
+    output_variables: dict[str, Any] = Field(default_factory=dict, alias="Output Variables", description="variables to write (values ignored, as in Peridigm)")
+
+
+class DataLoaderParams(ModelParams):
+    file_name: str = Field(alias="File Name", description="Exodus file holding the nodal field over time")
+    field_name: str = Field(alias="Field Name", description="nodal variable to load")
+
+
+class ContactModelParams(ModelParams):
+    model_config = ModelParams.model_config | {"extra": "allow"}
+    contact_model: str = Field(alias="Contact Model")
+
+
+# ------------------------------------------------------------------------------------------------
+# The validated deck
+# ------------------------------------------------------------------------------------------------
+@dataclass
+class ModelEntry:
+    """A named entry validated by a plugin (material, damage model, compute class, ...)."""
+
+    name: str  #: the entry's name in the deck ("My Elastic Material"), or the output label
+    model: str  #: the plugin name ("Elastic")
+    cls: type
+    params: Any
+    path: tuple[str, ...]
+
+
+@dataclass
+class BlockEntry:
+    names: list[str]
+    material: str
+    damage_model: str | None
+    horizon: float | str | None
+    path: tuple[str, ...]
+
+
+@dataclass
+class NodeSetEntry:
+    name: str  #: tidied
+    value: str
+    path: tuple[str, ...]
+
+
+@dataclass
+class BCEntry:
+    name: str
+    type: str  #: tidied
+    cls: type
+    params: Any
+    path: tuple[str, ...]
+
+
+@dataclass
+class SolverEntry:
+    section: str
+    method: str
+    cls: type
+    params: Any
+    path: tuple[str, ...]
+
+
+@dataclass
+class OutputEntry:
+    section: str
+    params: OutputParams
+    variables: list[str]  #: spaces replaced by "_", deck order
+    path: tuple[str, ...]
+
+    @property
+    def filename(self) -> str:
+        return self.params.output_filename.replace(" ", "_").replace(".", "_")
+
+
+@dataclass
+class DiscretizationEntry:
+    type: str
+    cls: type
+    params: Any
+    influence_function: str
+    bond_filters: list[tuple[str, dict, tuple[str, ...]]]
+    omit_bonds_between_blocks: str
+    path: tuple[str, ...]
+
+
+@dataclass
+class Deck:
+    """A validated deck. Paths inside it are relative to ``directory``."""
+
+    file: str
+    directory: Path
+    source: Any  #: the DeckSource (raw tree and line numbers)
+    discretization: DiscretizationEntry
+    materials: dict[str, ModelEntry]
+    damage_models: dict[str, ModelEntry]
+    blocks: list[BlockEntry]
+    node_sets: dict[str, NodeSetEntry]
+    boundary_conditions: list[BCEntry]
+    solvers: list[SolverEntry]
+    outputs: list[OutputEntry]
+    computes: list[ModelEntry]  #: Compute Class Parameters entries, deck order
+    data_loader: DataLoaderParams | None
+    contact: dict[str, Any] | None
+    registry: Registry = field(repr=False, default=None)
+
+    def line(self, path) -> int | None:
+        return self.source.line_of(path) if self.source is not None else None
+
+
+# ------------------------------------------------------------------------------------------------
+# Loading
+# ------------------------------------------------------------------------------------------------
+def load_deck(path: str | Path, registry: Registry | None = None) -> Deck:
+    """Read and validate a deck; raise InputError(s) naming every problem."""
+    from ..io.deckfile import load_deck_file
+
+    source = load_deck_file(path)
+    return parse_deck(source, registry)
+
+
+def parse_deck(source, registry: Registry | None = None) -> Deck:
+    """Validate an already-read :class:`~peridyn.io.deckfile.DeckSource`."""
+    registry = registry or get_registry()
+    file = str(source.path)
+    tree = source.tree
+    errors: list[InputError] = []
+    lines = source.line_of
+
+    def err(message: str, path=(), fix: str | None = None) -> None:
+        errors.append(InputError(message, file=file, path=path, fix=fix, line=lines(path) if path else None))
+
+    def section(name: str) -> dict:
+        value = tree.get(name, {})
+        if not isinstance(value, Mapping):
+            err(f"expected a list of entries, got {value!r}", (name,))
+            return {}
+        return value
+
+    # -- top level -----------------------------------------------------------------------------
+    for key in tree:
+        if key in KNOWN_SECTIONS or "Solver" in key or "Output" in key:
+            if key in UNSUPPORTED_SECTIONS:
+                err(UNSUPPORTED_SECTIONS[key], (key,), "remove the section")
+            continue
+        if key in IGNORED_TOP_LEVEL:
+            log.warning("%s: %r is ignored (%s)", file, key, IGNORED_TOP_LEVEL[key])
+            continue
+        import difflib
+
+        close = difflib.get_close_matches(key, list(KNOWN_SECTIONS) + ["Solver", "Output"], n=1, cutoff=0.6)
+        err(f"unknown section {key!r}", (key,), f"did you mean {close[0]!r}?" if close else f"known sections: {', '.join(KNOWN_SECTIONS)}, and names containing 'Solver' or 'Output'")
+    for required in ("Discretization", "Materials", "Blocks"):
+        if required not in tree:
+            err(f"missing required section {required!r}", (), f"add a {required} section")
+
+    disc = _parse_discretization(section("Discretization"), registry, file, errors, lines) if "Discretization" in tree else None
+
+    # -- materials and damage models ------------------------------------------------------------
+    materials = _parse_models(section("Materials"), "Materials", "material", "Material Model", registry, file, errors, lines)
+    damage = _parse_models(section("Damage Models"), "Damage Models", "damage", "Damage Model", registry, file, errors, lines)
+    for name, raw in section("Materials").items():
+        if isinstance(raw, Mapping) and "Horizon" in raw:
+            err("a material may not set 'Horizon'", ("Materials", name, "Horizon"), "set Horizon in the block instead")
+
+    # -- blocks ----------------------------------------------------------------------------------
+    blocks: list[BlockEntry] = []
+    seen_blocks: dict[str, tuple[str, ...]] = {}
+    for name, raw in section("Blocks").items():
+        path = ("Blocks", name)
+        p = validate_params(BlockParams, raw, path=path, file=file, errors=errors, lines=lines)
+        if p is None:
+            continue
+        names = p.block_names.split()
+        if not names:
+            err("'Block Names' is empty", path + ("Block Names",), "list block names such as 'block_1 block_2'")
+        for b in names:
+            if b in seen_blocks:
+                err(f"block {b!r} is listed twice (also in {' > '.join(seen_blocks[b])})", path + ("Block Names",))
+            seen_blocks[b] = path
+        if p.material not in section("Materials"):
+            err(f"unknown material {p.material!r}", path + ("Material",), _choices(p.material, section("Materials")))
+        if p.damage_model is not None and p.damage_model not in section("Damage Models"):
+            err(f"unknown damage model {p.damage_model!r}", path + ("Damage Model",), _choices(p.damage_model, section("Damage Models")))
+        horizon = p.horizon
+        if horizon is None:
+            err("missing required key 'Horizon'", path, "add 'Horizon: <length>'")
+        elif isinstance(horizon, float) and not horizon > 0:
+            err(f"the horizon must be positive (got {horizon!r})", path + ("Horizon",))
+        elif isinstance(horizon, str):
+            _check_expression(horizon, ("x", "y", "z"), path + ("Horizon",), file, errors)
+        blocks.append(BlockEntry(names, p.material, p.damage_model, horizon, path))
+
+    # -- boundary conditions ----------------------------------------------------------------------
+    node_sets: dict[str, NodeSetEntry] = {}
+    bcs: list[BCEntry] = []
+    for name, raw in section("Boundary Conditions").items():
+        path = ("Boundary Conditions", name)
+        if "NODE_SET" in tidy(name):
+            if isinstance(raw, bool) or not isinstance(raw, (str, int)):
+                err(f"a node set must be a string of point numbers or a file name (got {raw!r})", path)
+                continue
+            node_sets[tidy(name)] = NodeSetEntry(tidy(name), str(raw), path)
+            continue
+        if not isinstance(raw, Mapping):
+            err(f"expected a boundary condition (Type, Node Set, Coordinate, Value), got {raw!r}", path, "or name the entry '... Node Set' to define a node set")
+            continue
+        bc_type = raw.get("Type")
+        if bc_type is None:
+            err("missing required key 'Type'", path)
+            continue
+        key = tidy(bc_type)
+        if not registry.has("boundary_condition", key):
+            errors.append(registry.unknown("boundary_condition", str(bc_type), path=path + ("Type",), file=file))
+            continue
+        cls = registry.get("boundary_condition", key, path=path + ("Type",), file=file)
+        params = validate_params(cls.Params, raw, path=path, file=file, errors=errors, lines=lines)
+        if params is not None:
+            for problem in cls.check(params):
+                err(problem, path)
+            bcs.append(BCEntry(name, key, cls, params, path))
+    for bc in bcs:
+        ns = getattr(bc.params, "node_set", None)
+        if ns is not None and "NODE_SET" in tidy(ns) and tidy(ns) not in node_sets:
+            # mesh node sets (nodelist_1) are checked once the mesh is read
+            err(f"unknown node set {ns!r}", bc.path + ("Node Set",), _choices(ns, node_sets))
+
+    # -- solvers ---------------------------------------------------------------------------------
+    solvers: list[SolverEntry] = []
+    for key, raw in tree.items():
+        if "Solver" not in key:
+            continue
+        path = (key,)
+        if not isinstance(raw, Mapping):
+            err(f"expected a solver section, got {raw!r}", path)
+            continue
+        methods = [m for m in SOLVER_METHOD_ORDER if m in raw] + [
+            m for m in raw if isinstance(raw[m], Mapping) and m not in SOLVER_METHOD_ORDER and registry.has("solver", m)
+        ]
+        if not methods:
+            err("no solver method given", path, f"add one of: {', '.join(registry.names('solver'))}")
+            continue
+        method = methods[0]
+        if not registry.has("solver", method):
+            errors.append(registry.unknown("solver", method, path=path + (method,), file=file))
+            continue
+        cls = registry.get("solver", method, path=path + (method,), file=file)
+        params = validate_params(cls.Params, raw, path=path, file=file, errors=errors, lines=lines)
+        if params is not None:
+            solvers.append(SolverEntry(key, method, cls, params, path))
+
+    # -- compute classes ---------------------------------------------------------------------------
+    computes: list[ModelEntry] = []
+    for name, raw in section("Compute Class Parameters").items():
+        path = ("Compute Class Parameters", name)
+        if not isinstance(raw, Mapping) or "Compute Class" not in raw:
+            err("missing required key 'Compute Class'", path)
+            continue
+        cname = str(raw["Compute Class"]).replace(" ", "_")
+        if not registry.has("compute", cname):
+            errors.append(registry.unknown("compute", cname, path=path + ("Compute Class",), file=file))
+            continue
+        cls = registry.get("compute", cname, path=path, file=file)
+        if getattr(cls, "Params", None) is None:
+            err(f"compute {cname!r} takes no parameters", path + ("Compute Class",), "list it under Output Variables instead")
+            continue
+        body = {k: v for k, v in raw.items() if k != "Compute Class"}
+        params = validate_params(cls.Params, body, path=path, file=file, errors=errors, lines=lines)
+        if params is not None:
+            label = getattr(params, "output_label", None) or name
+            computes.append(ModelEntry(label, cname, cls, params, path))
+
+    # -- outputs -----------------------------------------------------------------------------------
+    outputs: list[OutputEntry] = []
+    for key, raw in tree.items():
+        if "Output" not in key or "Solver" in key:
+            continue
+        path = (key,)
+        p = validate_params(OutputParams, raw, path=path, file=file, errors=errors, lines=lines)
+        if p is None:
+            continue
+        if p.output_file_type != "ExodusII":
+            err(f"unsupported Output File Type {p.output_file_type!r}", path + ("Output File Type",), "use 'ExodusII'")
+        if p.output_format != "BINARY":
+            err(f"unsupported Output Format {p.output_format!r}", path + ("Output Format",), "use 'BINARY'")
+        variables = [str(v).replace(" ", "_") for v in p.output_variables]
+        outputs.append(OutputEntry(key, p, variables, path))
+
+    # -- data loader, contact -----------------------------------------------------------------------
+    loader = None
+    if "Data Loader" in tree:
+        loader = validate_params(DataLoaderParams, tree["Data Loader"], path=("Data Loader",), file=file, errors=errors, lines=lines)
+    contact = None
+    if "Contact" in tree:
+        contact = _parse_contact(section("Contact"), registry, file, errors, lines)
+
+    raise_collected(errors)
+    assert disc is not None
+    return Deck(
+        file=file,
+        directory=Path(source.path).resolve().parent,
+        source=source,
+        discretization=disc,
+        materials=materials,
+        damage_models=damage,
+        blocks=blocks,
+        node_sets=node_sets,
+        boundary_conditions=bcs,
+        solvers=solvers,
+        outputs=outputs,
+        computes=computes,
+        data_loader=loader,
+        contact=contact,
+        registry=registry,
+    )
+
+
+# ------------------------------------------------------------------------------------------------
+# helpers
+# ------------------------------------------------------------------------------------------------
+def _choices(name: str, options) -> str:
+    import difflib
+
+    options = list(options)
+    close = difflib.get_close_matches(str(name), options, n=1, cutoff=0.6)
+    if close:
+        return f"did you mean {close[0]!r}?"
+    return f"defined: {', '.join(options)}" if options else "none is defined"
+
+
+def _check_expression(text: str, variables, path, file, errors) -> None:
+    from .expressions import ExpressionError, compile_expression
+
+    try:
+        compile_expression(text, variables)
+    except ExpressionError as exc:
+        errors.append(InputError(str(exc), file=file, path=path))
+
+
+def _parse_models(sec, section_name, kind, key, registry, file, errors, lines) -> dict[str, ModelEntry]:
+    out: dict[str, ModelEntry] = {}
+    for name, raw in sec.items():
+        path = (section_name, name)
+        if not isinstance(raw, Mapping):
+            errors.append(InputError(f"expected a list of parameters, got {raw!r}", file=file, path=path))
+            continue
+        model = raw.get(key)
+        if model is None:
+            errors.append(InputError(f"missing required key {key!r}", file=file, path=path, line=lines(path)))
+            continue
+        if not registry.has(kind, model):
+            errors.append(registry.unknown(kind, model, path=path + (key,), file=file))
+            continue
+        try:
+            cls = registry.get(kind, model, path=path + (key,), file=file)
+        except InputError as exc:
+            errors.append(exc)
+            continue
+        body = {k: v for k, v in raw.items() if k != key and not (section_name == "Materials" and k == "Horizon")}
+        params = validate_params(cls.Params, body, path=path, file=file, errors=errors, lines=lines)
+        if params is not None:
+            out[name] = ModelEntry(name, model, cls, params, path)
+    return out
+
+
+DISCRETIZATION_CORE_KEYS = ("Type", "Influence Function", "Bond Filters", "Omit Bonds Between Blocks")
+
+
+def _parse_discretization(raw, registry, file, errors, lines) -> DiscretizationEntry | None:
+    path = ("Discretization",)
+    if "Horizon" in raw:
+        errors.append(InputError("'Horizon' is not allowed here", file=file, path=path + ("Horizon",), fix="set Horizon in each block"))
+    dtype = raw.get("Type")
+    if dtype is None:
+        errors.append(InputError("missing required key 'Type'", file=file, path=path, fix=f"one of: {', '.join(registry.names('discretization'))}"))
+        return None
+    if not registry.has("discretization", dtype):
+        errors.append(registry.unknown("discretization", dtype, path=path + ("Type",), file=file))
+        return None
+    cls = registry.get("discretization", dtype, path=path + ("Type",), file=file)
+    body = {k: v for k, v in raw.items() if k not in DISCRETIZATION_CORE_KEYS and k != "Horizon"}
+    params = validate_params(cls.Params, body, path=path, file=file, errors=errors, lines=lines)
+    influence = raw.get("Influence Function", "One")
+    if not isinstance(influence, str):
+        errors.append(InputError(f"expected a name or an expression, got {influence!r}", file=file, path=path + ("Influence Function",)))
+        influence = "One"
+    elif influence not in ("One", "Parabolic Decay", "Gaussian"):
+        _check_expression(influence, ("zeta", "horizon"), path + ("Influence Function",), file, errors)
+    filters = []
+    raw_filters = raw.get("Bond Filters", {})
+    if raw_filters and not cls.supports_bond_filters:
+        errors.append(InputError(f"bond filters cannot be used with {dtype}", file=file, path=path + ("Bond Filters",), fix="use an Exodus or Text File mesh"))
+    elif isinstance(raw_filters, Mapping):
+        for fname, fraw in raw_filters.items():
+            fpath = path + ("Bond Filters", fname)
+            if not isinstance(fraw, Mapping):
+                errors.append(InputError(f"expected a bond filter (Type, ...), got {fraw!r}", file=file, path=fpath))
+                continue
+            filters.append((fname, dict(fraw), fpath))
+    omit = raw.get("Omit Bonds Between Blocks", "None")
+    if omit not in ("None", "All"):
+        errors.append(InputError(f"unknown value {omit!r}", file=file, path=path + ("Omit Bonds Between Blocks",), fix="use 'None' or 'All'"))
+    if omit == "All" and not cls.supports_bond_filters:
+        errors.append(InputError(f"'Omit Bonds Between Blocks' cannot be used with {dtype}", file=file, path=path + ("Omit Bonds Between Blocks",)))
+    if params is None:
+        return None
+    return DiscretizationEntry(dtype, cls, params, influence, filters, omit, path)
+
+
+def _parse_contact(raw, registry, file, errors, lines) -> dict[str, Any]:
+    path = ("Contact",)
+    models = raw.get("Models", {})
+    out: dict[str, Any] = {"raw": dict(raw), "models": {}}
+    if isinstance(models, Mapping):
+        for name, mraw in models.items():
+            mpath = path + ("Models", name)
+            if not isinstance(mraw, Mapping) or "Contact Model" not in mraw:
+                errors.append(InputError("missing required key 'Contact Model'", file=file, path=mpath))
+                continue
+            model = mraw["Contact Model"]
+            if not registry.has("contact", model):
+                errors.append(registry.unknown("contact", model, path=mpath + ("Contact Model",), file=file))
+                continue
+            cls = registry.get("contact", model, path=mpath, file=file)
+            body = {k: v for k, v in mraw.items() if k != "Contact Model"}
+            params = validate_params(cls.Params, body, path=mpath, file=file, errors=errors, lines=lines)
+            if params is not None:
+                out["models"][name] = ModelEntry(name, model, cls, params, mpath)
+    return out

@@ -1,0 +1,66 @@
+"""The discretization: points, volumes, blocks and mesh node sets, as a reader produced them.
+
+Everything here is in *mothership order* (Peridigm's word): the order of the mesh file or the
+generator, which is also the node order of the output file. The engine later reorders points
+for memory locality; that order never leaks into output.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+#: builds candidate neighbor lists for a grid generator. Called as ``rule(points, horizon)`` with
+#: ``points`` the mothership indices (int64, shape (k,)) whose lists are wanted and ``horizon``
+#: the horizon of every point (float64, shape (n,), metres). Returns ``(offsets, neighbors)``:
+#: CSR in the order of ``points``, ``offsets`` int64 of shape (k+1,), ``neighbors`` int64
+#: mothership indices, each list in ascending global-id order, the point itself excluded.
+NeighborRule = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
+
+
+@dataclass
+class Discretization:
+    """Points of a model in mothership order.
+
+    Attributes
+    ----------
+    x: (n, 3) float64 reference positions (element centroids for meshes), length units of the deck.
+    volume: (n,) float64 cell volumes.
+    block_id: (n,) int64 block id of every point (the number in ``block_<id>``).
+    gid: (n,) int64 0-based global ids (Peridigm's GIDs; Element_Id = gid + 1 in output).
+    block_names: block id -> block name as the mesh names it (``block_<id>`` when unnamed).
+    node_sets: node sets the mesh defines, by their raw names (``nodelist_1``), each an int64
+        array of mothership indices in Peridigm's order, without duplicates.
+    min_element_radius: min over points of (3 V / 4 pi)^(1/3), Peridigm's ``minElementRadius``
+        (used for the default finite-difference probe length).
+    neighbor_rule: a grid generator's own neighborhood rule (PdQuickGrid boxes); ``None`` means a
+        Euclidean search within each point's horizon, inclusive (Exodus and Text File meshes).
+    source: file name or generator name, for messages.
+    """
+
+    x: np.ndarray
+    volume: np.ndarray
+    block_id: np.ndarray
+    gid: np.ndarray
+    block_names: dict[int, str]
+    node_sets: dict[str, np.ndarray] = field(default_factory=dict)
+    min_element_radius: float = 1e50
+    neighbor_rule: NeighborRule | None = None
+    source: str = ""
+
+    @property
+    def num_points(self) -> int:
+        return int(self.x.shape[0])
+
+    def validate(self) -> None:
+        """Check shapes and basic sanity; raise ValueError on a malformed discretization."""
+        n = self.num_points
+        if self.x.shape != (n, 3):
+            raise ValueError(f"x has shape {self.x.shape}, expected ({n}, 3)")
+        for name in ("volume", "block_id", "gid"):
+            arr = getattr(self, name)
+            if arr.shape != (n,):
+                raise ValueError(f"{name} has shape {arr.shape}, expected ({n},)")
+        if n and len(np.unique(self.gid)) != n:
+            raise ValueError("global ids are not unique")

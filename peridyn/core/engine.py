@@ -1,0 +1,586 @@
+"""The engine: from a validated deck to blocks, fields, neighbor lists, models and outputs, and
+the force evaluation every solver calls.
+
+Local point order: owned points first, grouped by block (in block order) and sorted along a
+space-filling curve inside each block, then ghosts (MPI). Each block owns a contiguous range of
+local indices. Neighbor lists are CSR over local indices, each list sorted by global id so sums
+do not depend on the decomposition. Output is always written in mothership order.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import time as _time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numba import njit, prange
+
+from ..errors import InputError, raise_collected
+from .deck import Deck, ModelEntry, tidy
+from .fields import FieldSpec, FieldStore, Relation, Temporal
+from .influence import InfluenceFunction
+from .interfaces import BlockView, DamageModel, Material
+from .parallel import SerialComm
+
+log = logging.getLogger("peridyn.engine")
+
+VECTOR = 3
+
+
+@dataclass
+class Block:
+    """One block of the model: its points (a local range), material and damage model."""
+
+    index: int
+    name: str
+    block_id: int
+    material_name: str
+    material: Material
+    damage: DamageModel | None
+    horizon: float | None  #: constant horizon, or None when it varies in space
+    horizon_text: str | float
+    start: int = 0
+    stop: int = 0
+    fused: bool = False
+    view: BlockView | None = None
+    path: tuple[str, ...] = ()
+
+    @property
+    def density(self) -> float:
+        return self.material.density
+
+
+# ------------------------------------------------------------------------------------------------
+# kernels
+# ------------------------------------------------------------------------------------------------
+@njit(cache=True, parallel=True, error_model="numpy")
+def gather_scalar_force_kernel(start, stop, offsets, neighbors, in_offsets, in_bonds, sources, y, volume, t, f):
+    """f_i = sum_{b out of i} t_b e_b V_j - sum_{b into i} t_b e_b V_src(b) for i in [start, stop):
+    the force density from scalar (central) force states, both bond ends, gathered per point.
+    Shapes: y (n, 3); volume (n,); t (nb,); f (n, 3)."""
+    for i in prange(start, stop):
+        fx = 0.0
+        fy = 0.0
+        fz = 0.0
+        for b in range(offsets[i], offsets[i + 1]):
+            j = neighbors[b]
+            ex = y[j, 0] - y[i, 0]
+            ey = y[j, 1] - y[i, 1]
+            ez = y[j, 2] - y[i, 2]
+            L = math.sqrt(ex * ex + ey * ey + ez * ez)
+            if L > 0.0:
+                s = (t[b] * volume[j]) / L
+                fx += s * ex
+                fy += s * ey
+                fz += s * ez
+        for k in range(in_offsets[i], in_offsets[i + 1]):
+            b = in_bonds[k]
+            j = sources[b]
+            ex = y[j, 0] - y[i, 0]
+            ey = y[j, 1] - y[i, 1]
+            ez = y[j, 2] - y[i, 2]
+            L = math.sqrt(ex * ex + ey * ey + ez * ez)
+            if L > 0.0:
+                s = (t[b] * volume[j]) / L
+                fx += s * ex
+                fy += s * ey
+                fz += s * ez
+        f[i, 0] = fx
+        f[i, 1] = fy
+        f[i, 2] = fz
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def critical_time_step_kernel(start, stop, offsets, neighbors, x, volume, density, c_const, c_point, dt):
+    """dt_i = sqrt(2 rho / sum_j V_j c / |xi|) (Silling-Askari), inf for isolated points.
+    c_point (n,) overrides c_const when non-empty (variable horizons)."""
+    per_point = c_point.shape[0] > 0
+    for i in prange(start, stop):
+        c = c_point[i] if per_point else c_const
+        acc = 0.0
+        for b in range(offsets[i], offsets[i + 1]):
+            j = neighbors[b]
+            dx = x[i, 0] - x[j, 0]
+            dy = x[i, 1] - x[j, 1]
+            dz = x[i, 2] - x[j, 2]
+            acc += (volume[j] * c) / math.sqrt(dx * dx + dy * dy + dz * dz)
+        dt[i] = math.sqrt((2.0 * density) / acc) if acc > 0.0 else np.inf
+
+
+# ------------------------------------------------------------------------------------------------
+class Simulation:
+    """A model built from a deck, ready for solvers.
+
+    Attributes a solver uses: ``fields`` (FieldStore), ``blocks``, ``bonds`` (NeighborList),
+    ``num_owned``, ``time``, ``comm``, ``outputs`` and the methods ``evaluate_forces``,
+    ``apply_kinematic``, ``apply_body_forces``, ``write_output``, ``critical_time_step``,
+    ``advance`` (swap N and NP1).
+    """
+
+    def __init__(self, deck: Deck, *, comm=None, output_dir: str | Path | None = None, progress: bool = True) -> None:
+        self.deck = deck
+        self.comm = comm or SerialComm()
+        self.output_dir = Path(output_dir) if output_dir is not None else Path.cwd()
+        self.progress = progress
+        self.time = 0.0
+        self.time_prev = 0.0
+        self.delta_u: np.ndarray | None = None
+        self.nonlinear_iterations = 0
+        self.timers: dict[str, float] = {}
+        self.stats: dict[str, Any] = {}
+        self.energy = None  # set by explicit solvers (EnergyMonitor)
+        t0 = _time.perf_counter()
+        self._setup()
+        self.timers["setup"] = _time.perf_counter() - t0
+
+    # ============================================================================================
+    # set-up
+    # ============================================================================================
+    def _setup(self) -> None:
+        deck = self.deck
+        dentry = deck.discretization
+        reader = dentry.cls(dentry.params, deck_dir=deck.directory)
+        t0 = _time.perf_counter()
+        disc = reader.read()
+        disc.validate()
+        self.discretization = disc
+        self.timers["read mesh"] = _time.perf_counter() - t0
+        self.num_global = disc.num_points
+        self.influence = InfluenceFunction(dentry.influence_function)
+
+        self._assign_blocks(disc)
+        horizon = self._point_horizons(disc)
+        t0 = _time.perf_counter()
+        offsets, neighbors = self._build_neighbors(disc, horizon)
+        self.timers["neighbor search"] = _time.perf_counter() - t0
+        self._order_points(disc, offsets, neighbors, horizon)
+        self._create_models()
+        self._declare_fields()
+        self._create_conditions()
+        from .output import OutputManager
+
+        self.outputs = OutputManager(self)
+        self._declare_fields_late()
+        self._fill_fields(disc)
+        self._make_views()
+        self._check_fusion()
+        self._apply_initial_conditions()
+        for blk in self.blocks:
+            blk.material.initialize(blk.view)
+            if blk.damage is not None:
+                blk.damage.initialize(blk.view)
+        self.data_loader = None
+        if deck.data_loader is not None:
+            from .data_loader import DataLoader
+
+            self.data_loader = DataLoader(self, deck.data_loader)
+        self.outputs.initialize()
+
+    # -- blocks --------------------------------------------------------------------------------
+    def _assign_blocks(self, disc) -> None:
+        deck = self.deck
+        errors: list[InputError] = []
+        mesh_ids = sorted(disc.block_names)
+        names_by_id = dict(disc.block_names)
+        entries: list[tuple[str, Any]] = []  # (block name, BlockEntry)
+        default = None
+        for entry in deck.blocks:
+            for name in entry.names:
+                if name.lower() == "default":
+                    default = entry
+                else:
+                    entries.append((name, entry))
+        used_ids: dict[int, str] = {}
+        specs = []
+        for name, entry in entries:
+            bid = _block_id_from_name(name, names_by_id)
+            if bid is None or bid not in names_by_id:
+                available = ", ".join(names_by_id[i] for i in mesh_ids) or "none"
+                errors.append(
+                    InputError(f"block {name!r} is not in the discretization", file=deck.file, path=entry.path + ("Block Names",), fix=f"blocks of {disc.source or 'the mesh'}: {available}")
+                )
+                continue
+            if bid in used_ids:
+                errors.append(InputError(f"block {name!r} is the same mesh block as {used_ids[bid]!r}", file=deck.file, path=entry.path + ("Block Names",)))
+                continue
+            used_ids[bid] = name
+            specs.append((name, bid, entry))
+        missing = [bid for bid in mesh_ids if bid not in used_ids]
+        if missing:
+            if default is None:
+                errors.append(
+                    InputError(
+                        f"mesh block(s) {', '.join(names_by_id[b] for b in missing)} have no entry in Blocks",
+                        file=deck.file,
+                        path=("Blocks",),
+                        fix="add them to 'Block Names' of a block entry, or add an entry with 'Block Names: default'",
+                    )
+                )
+            else:
+                for bid in sorted(missing, key=lambda b: names_by_id[b]):  # Peridigm sorts by name
+                    specs.append((names_by_id[bid], bid, default))
+        raise_collected(errors)
+        self.block_specs = specs
+        index_of_id = {bid: k for k, (_, bid, _) in enumerate(specs)}
+        self.block_index_mothership = np.array([index_of_id[b] for b in disc.block_id], dtype=np.int64) if disc.num_points else np.zeros(0, np.int64)
+
+    def _point_horizons(self, disc) -> np.ndarray:
+        from .expressions import compile_expression
+
+        horizon = np.empty(disc.num_points)
+        for k, (name, bid, entry) in enumerate(self.block_specs):
+            mask = self.block_index_mothership == k
+            h = entry.horizon
+            if isinstance(h, str):
+                expr = compile_expression(h, ("x", "y", "z"))
+                xs = disc.x[mask]
+                values = np.broadcast_to(np.asarray(expr(x=xs[:, 0], y=xs[:, 1], z=xs[:, 2]), float), (int(mask.sum()),))
+                if np.any(~(values > 0)):
+                    raise InputError(f"the horizon expression is not positive at every point of block {name!r}", file=self.deck.file, path=entry.path + ("Horizon",))
+                horizon[mask] = values
+            else:
+                # Peridigm prints a double horizon with %.16g and re-parses it
+                horizon[mask] = float(f"{h:.16g}")
+        return horizon
+
+    def _build_neighbors(self, disc, horizon):
+        from .neighbors import omit_bonds_between_blocks, radius_search
+
+        points = np.arange(disc.num_points, dtype=np.int64)
+        if disc.neighbor_rule is not None:
+            offsets, neighbors = disc.neighbor_rule(points, horizon)
+        else:
+            offsets, neighbors = radius_search(disc.x, horizon, points)
+        dentry = self.deck.discretization
+        if dentry.bond_filters:
+            from .bond_filters import apply_bond_filters, make_filter
+
+            filters = [make_filter(raw, deck_dir=self.deck.directory, path=path) for _, raw, path in dentry.bond_filters]
+            offsets, neighbors = apply_bond_filters(disc.x, offsets, neighbors, filters)
+        if dentry.omit_bonds_between_blocks == "All":
+            offsets, neighbors = omit_bonds_between_blocks(offsets, neighbors, disc.block_id)
+        return offsets, neighbors
+
+    def _order_points(self, disc, offsets, neighbors, horizon) -> None:
+        """Local order: by block, then along a space-filling curve; rows sorted by global id."""
+        from .neighbors import NeighborList, renumber, sort_rows, space_filling_order
+
+        n = disc.num_points
+        sfc = space_filling_order(disc.x) if n else np.zeros(0, np.int64)
+        rank = np.empty(n, dtype=np.int64)
+        rank[sfc] = np.arange(n)
+        order = np.lexsort((rank, self.block_index_mothership))  # old (mothership) index per new index
+        new_of_old = np.empty(n, dtype=np.int64)
+        new_of_old[order] = np.arange(n)
+        offsets, neighbors = renumber(offsets, neighbors, new_of_old, order)
+        gid_local = disc.gid[order]
+        neighbors = sort_rows(offsets, neighbors, gid_local)
+        self.bonds = NeighborList(np.ascontiguousarray(offsets, dtype=np.int64), np.ascontiguousarray(neighbors, dtype=np.int32))
+        self.mothership_of_local = order
+        self.local_of_mothership = new_of_old
+        self.gid = gid_local
+        self.block_index = self.block_index_mothership[order]
+        self.horizon_local = horizon[order]
+        self.num_owned = n
+        self.num_local = n
+        counts = np.bincount(self.block_index, minlength=len(self.block_specs))
+        self.block_ranges = np.concatenate([[0], np.cumsum(counts)])
+
+    def _create_models(self) -> None:
+        deck = self.deck
+        self.blocks: list[Block] = []
+        errors: list[InputError] = []
+        for k, (name, bid, entry) in enumerate(self.block_specs):
+            mentry: ModelEntry = deck.materials[entry.material]
+            horizon = float(f"{entry.horizon:.16g}") if isinstance(entry.horizon, float) else None
+            try:
+                material = mentry.cls(mentry.params, horizon=horizon, options={"deck_dir": deck.directory, "path": mentry.path})
+            except (ValueError, InputError) as exc:
+                errors.append(exc if isinstance(exc, InputError) else InputError(str(exc), file=deck.file, path=mentry.path))
+                continue
+            damage = None
+            if entry.damage_model is not None:
+                dentry = deck.damage_models[entry.damage_model]
+                damage = dentry.cls(dentry.params, options={"deck_dir": deck.directory, "path": dentry.path})
+            if horizon is None and getattr(material, "requires_constant_horizon", True) and self.influence.kind != 0:
+                errors.append(
+                    InputError(
+                        f"material {mentry.model!r} with influence function {self.influence.spec!r} needs a constant horizon",
+                        file=deck.file,
+                        path=entry.path + ("Horizon",),
+                        fix="give the horizon as a number",
+                    )
+                )
+            blk = Block(k, name, bid, entry.material, material, damage, horizon, entry.horizon, path=entry.path)
+            blk.start, blk.stop = int(self.block_ranges[k]), int(self.block_ranges[k + 1])
+            self.blocks.append(blk)
+        raise_collected(errors)
+
+    # -- fields --------------------------------------------------------------------------------
+    def _declare_fields(self) -> None:
+        store = FieldStore(self.num_local, self.bonds.num_bonds)
+        self.fields = store
+        for name in ("Model_Coordinates", "Coordinates", "Displacement", "Velocity", "Force_Density"):
+            store.declare(FieldSpec(name, Relation.NODE, VECTOR))
+        store.declare(FieldSpec("Volume", Relation.ELEMENT))
+        for blk in self.blocks:
+            store.declare_all(blk.material.fields())
+            if blk.damage is not None:
+                store.declare_all(blk.damage.fields())
+
+    def _declare_fields_late(self) -> None:
+        """Fields the outputs asked for (allocated only now, after the outputs are known)."""
+        for spec in self.outputs.field_specs():
+            self.fields.declare(spec)
+
+    def require(self, spec: FieldSpec) -> np.ndarray:
+        """Declare (if needed) and return a field; for computes and solvers."""
+        self.fields.declare(spec)
+        return self.fields[spec.name]
+
+    def _fill_fields(self, disc) -> None:
+        s = self.fields
+        x = disc.x[self.mothership_of_local]
+        s["Model_Coordinates"][:] = x
+        s["Coordinates"][:] = x
+        s["Volume"][:] = disc.volume[self.mothership_of_local]
+        if "Horizon" in s:
+            s["Horizon"][:] = self.horizon_local
+
+    def _make_views(self) -> None:
+        for blk in self.blocks:
+            blk.view = BlockView(
+                name=blk.name,
+                block_id=blk.block_id,
+                start=blk.start,
+                stop=blk.stop,
+                horizon=blk.horizon if blk.horizon is not None else float("nan"),
+                density=blk.material.density,
+                fields=self.fields,
+                bonds=self.bonds,
+                num_owned=self.num_owned,
+                influence=self.influence,
+            )
+
+    def _check_fusion(self) -> None:
+        """A block is fused (one kernel computes both ends of its bonds) when no bond crosses
+        its boundary in either direction, its horizon is constant and its families are
+        symmetric."""
+        nl = self.bonds
+        if nl.num_bonds:
+            src_block = np.repeat(self.block_index, nl.counts())
+            dst_block = self.block_index[nl.neighbors]
+            crossing = src_block != dst_block
+            open_blocks = set(np.unique(src_block[crossing]).tolist()) | set(np.unique(dst_block[crossing]).tolist())
+        else:
+            open_blocks = set()
+        maybe_one_sided = bool(self.deck.discretization.bond_filters)
+        reverse = None
+        for blk in self.blocks:
+            blk.fused = blk.index not in open_blocks and blk.horizon is not None
+            if blk.fused and maybe_one_sided and blk.stop > blk.start:
+                if reverse is None:
+                    reverse = nl.reverse()
+                lo, hi = nl.offsets[blk.start], nl.offsets[blk.stop]
+                blk.fused = bool(np.all(reverse[lo:hi] >= 0))
+            blk.view.closed = blk.fused
+        self.generic_blocks = [blk for blk in self.blocks if not blk.fused]
+        if self.generic_blocks:
+            self.bond_force = np.zeros(nl.num_bonds)
+            nl.transpose()
+            nl.sources()
+        else:
+            self.bond_force = None
+
+    # -- conditions ----------------------------------------------------------------------------
+    def _create_conditions(self) -> None:
+        deck = self.deck
+        from ..io.nodesets import parse_node_set_value
+
+        disc = self.discretization
+        mothership_of_gid = {int(g): k for k, g in enumerate(disc.gid)}
+        self.node_sets: dict[str, np.ndarray] = {}  # tidied name -> mothership indices (duplicates kept)
+        errors: list[InputError] = []
+        for name, entry in deck.node_sets.items():
+            try:
+                ids = parse_node_set_value(entry.value, deck_dir=deck.directory, path=entry.path, deck_file=deck.file)
+            except InputError as exc:
+                errors.append(exc)
+                continue
+            missing = [int(i) for i in ids if int(i) - 1 not in mothership_of_gid]
+            if missing:
+                errors.append(
+                    InputError(
+                        f"node set lists point(s) {', '.join(map(str, missing[:5]))}{'...' if len(missing) > 5 else ''} that do not exist",
+                        file=deck.file,
+                        path=entry.path,
+                        fix=f"point numbers are 1-based global ids ({self.num_global} points)",
+                    )
+                )
+                continue
+            self.node_sets[name] = np.array([mothership_of_gid[int(i) - 1] for i in ids], dtype=np.int64)
+        for raw_name, members in disc.node_sets.items():
+            name = tidy(raw_name)
+            if name in self.node_sets:
+                errors.append(InputError(f"node set {raw_name!r} is defined both in the deck and in the mesh", file=deck.file, path=("Boundary Conditions",), fix="rename the deck's node set"))
+                continue
+            self.node_sets[name] = np.asarray(members, dtype=np.int64)
+        self.conditions = []
+        for bc in deck.boundary_conditions:
+            ns = tidy(bc.params.node_set)
+            if ns not in self.node_sets:
+                errors.append(
+                    InputError(
+                        f"unknown node set {bc.params.node_set!r}",
+                        file=deck.file,
+                        path=bc.path + ("Node Set",),
+                        fix=f"node sets: {', '.join(sorted(self.node_sets)) or 'none'}",
+                    )
+                )
+                continue
+            obj = bc.cls(bc.params, entry_name=bc.name)
+            members = self.local_of_mothership[self.node_sets[ns]]
+            obj.bind(np.unique(members) if obj.stage != "initial" else members, self._reference_x())
+            self.conditions.append(obj)
+        raise_collected(errors)
+        for obj in self.conditions:
+            if obj.target == "temperature":
+                self.fields.declare(FieldSpec("Temperature", Relation.NODE))
+                if obj.stage == "kinematic":
+                    self.fields.declare(FieldSpec("Temperature_Change", Relation.NODE, halo=True))
+            if obj.target == "body_force":
+                self.fields.declare(FieldSpec("External_Force_Density", Relation.NODE, VECTOR))
+        self.kinematic = [c for c in self.conditions if c.stage == "kinematic"]
+        self.force_conditions = [c for c in self.conditions if c.stage == "force"]
+        self.prescribed_points = np.unique(np.concatenate([c.points for c in self.kinematic if c.target == "displacement"] or [np.zeros(0, np.int64)]))
+
+    def _reference_x(self) -> np.ndarray:
+        return self.discretization.x[self.mothership_of_local]
+
+    def _apply_initial_conditions(self) -> None:
+        for c in self.conditions:
+            if c.stage == "initial":
+                c.apply_initial(self)
+
+    # ============================================================================================
+    # what solvers call
+    # ============================================================================================
+    def begin_step(self, time: float) -> None:
+        """Start of an explicit step: damage models see the new time (Peridigm re-creates them)."""
+        for blk in self.blocks:
+            if blk.damage is not None:
+                blk.damage.begin_step(blk.view, time)
+
+    def evaluate_forces(self) -> np.ndarray:
+        """Peridigm's evalModel: damage, precompute, force. Returns Force_Density (n, 3)."""
+        for blk in self.blocks:
+            if blk.damage is not None:
+                blk.damage.update(blk.view)
+        for blk in self.blocks:
+            blk.material.precompute(blk.view)
+        f = self.fields["Force_Density"]
+        pending = []
+        for blk in self.blocks:
+            if not (blk.fused and blk.material.force_fused(blk.view, f)):
+                pending.append(blk)
+        if pending:
+            if self.bond_force is None:
+                self.bond_force = np.zeros(self.bonds.num_bonds)
+                self.bonds.transpose()
+                self.bonds.sources()
+            t = self.bond_force
+            for blk in pending:
+                blk.material.force_state(blk.view, t)
+            nl = self.bonds
+            in_offsets, in_bonds = nl.transpose()
+            sources = nl.sources()
+            y, vol = self.fields["Coordinates"], self.fields["Volume"]
+            for blk in pending:
+                gather_scalar_force_kernel(blk.start, blk.stop, nl.offsets, nl.neighbors, in_offsets, in_bonds, sources, y, vol, t, f)
+        return f
+
+    def apply_kinematic(self, t: float, t_prev: float) -> None:
+        for c in self.kinematic:
+            c.apply_kinematic(self, t, t_prev)
+
+    def apply_body_forces(self, t: float) -> None:
+        if not self.force_conditions:
+            return
+        b = self.fields["External_Force_Density"]
+        b[:] = 0.0
+        for c in self.force_conditions:
+            c.apply_force(self, t)
+
+    def load_data(self, t: float) -> None:
+        if self.data_loader is not None:
+            self.data_loader.load(t)
+
+    def write_output(self, t: float) -> None:
+        self.outputs.write(t)
+
+    def advance(self) -> None:
+        """End of a completed step: swap N and NP1 of two-step fields."""
+        self.fields.swap()
+
+    def density_per_point(self) -> np.ndarray:
+        """(num_owned,) mass density of every owned point."""
+        if not hasattr(self, "_rho"):
+            rho = np.empty(self.num_local)
+            for blk in self.blocks:
+                rho[blk.start : blk.stop] = blk.density
+            self._rho = rho
+        return self._rho
+
+    def critical_time_step(self) -> float:
+        """Peridigm's critical time step estimate min_i sqrt(2 rho / sum_j V_j c / |xi_ij|)."""
+        nl = self.bonds
+        s = self.fields
+        dt = np.full(self.num_local, np.inf)
+        for blk in self.blocks:
+            K = blk.material.bulk_modulus
+            if blk.horizon is not None:
+                d = blk.horizon
+                c = (18.0 * K) / ((((math.pi * d) * d) * d) * d)
+                c_point = np.zeros(0)
+            else:
+                h = self.horizon_local
+                c = 0.0
+                c_point = (18.0 * K) / ((((math.pi * h) * h) * h) * h)
+            critical_time_step_kernel(blk.start, blk.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Volume"], blk.density, c, c_point, dt)
+        local = float(dt[: self.num_owned].min()) if self.num_owned else math.inf
+        return self.comm.allreduce_min(local)
+
+    # -- energies (owned points; reduced over ranks) --------------------------------------------
+    def kinetic_energy(self) -> float:
+        v = self.fields["Velocity"][: self.num_owned]
+        m = self.fields["Volume"][: self.num_owned] * self.density_per_point()[: self.num_owned]
+        return self.comm.allreduce_sum(0.5 * float(np.dot(m, np.einsum("ij,ij->i", v, v))))
+
+    def stored_energy(self) -> float:
+        """Total stored elastic energy (sum of W_i V_i over owned points)."""
+        W = np.zeros(self.num_local)
+        for blk in self.blocks:
+            blk.material.stored_energy_density(blk.view, W)
+        return self.comm.allreduce_sum(float(np.dot(W[: self.num_owned], self.fields["Volume"][: self.num_owned])))
+
+    def memory_bytes(self) -> int:
+        total = self.fields.nbytes() + self.bonds.nbytes()
+        if self.bond_force is not None:
+            total += self.bond_force.nbytes
+        return total
+
+
+def _block_id_from_name(name: str, names_by_id: dict[int, str]) -> int | None:
+    """Peridigm: the block id is the integer after the last '_' of the name; a mesh block whose
+    own name matches is found by name first."""
+    for bid, mesh_name in names_by_id.items():
+        if mesh_name == name:
+            return bid
+    tail = name.rsplit("_", 1)[-1]
+    try:
+        return int(tail)
+    except ValueError:
+        return None

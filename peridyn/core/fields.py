@@ -1,0 +1,149 @@
+"""Declared fields and the store that allocates them (DESIGN.md decision 4).
+
+Models, damage models, contact models and computes declare the fields they read and write as
+:class:`FieldSpec`; the engine allocates exactly those (plus the few every run needs) and nothing
+else. A deck without a damage model therefore has no ``Bond_Damage`` array at all.
+
+Point fields (``NODE`` and ``ELEMENT``) have one row per local point (owned points first, then
+ghosts); ``BOND`` fields one row per bond of the neighbor list (CSR order); ``GLOBAL`` fields one
+row. Two-step fields keep an N and an NP1 array and advance by swapping references.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum, IntEnum
+
+import numpy as np
+
+
+class Relation(Enum):
+    NODE = "node"  #: per point, written as an Exodus nodal variable (vectors split X/Y/Z)
+    ELEMENT = "element"  #: per point, written as an Exodus element variable
+    BOND = "bond"  #: per bond (never written to Exodus)
+    GLOBAL = "global"  #: one value (or vector) for the whole model
+
+
+class Length(IntEnum):
+    SCALAR = 1
+    VECTOR = 3
+    TENSOR = 9
+
+
+class Temporal(Enum):
+    CONSTANT = "constant"
+    TWO_STEP = "two_step"
+
+
+@dataclass(frozen=True)
+class FieldSpec:
+    """What a field is.
+
+    name: Peridigm's field name (``Dilatation``, ``Bond_Damage``); output variables use it.
+    relation: per point (NODE/ELEMENT), per bond or global.
+    length: components per entry (1, 3 or 9; any positive int for N-length data).
+    temporal: CONSTANT (one array) or TWO_STEP (N and NP1 arrays, swapped after each step).
+    halo: under MPI, ghost copies are refreshed when the engine exchanges halos.
+    units: for documentation.
+    """
+
+    name: str
+    relation: Relation = Relation.ELEMENT
+    length: int = Length.SCALAR
+    temporal: Temporal = Temporal.CONSTANT
+    halo: bool = False
+    units: str = ""
+
+    @property
+    def is_point(self) -> bool:
+        return self.relation in (Relation.NODE, Relation.ELEMENT)
+
+    def compatible(self, other: "FieldSpec") -> bool:
+        return (self.relation, int(self.length)) == (other.relation, int(other.length))
+
+
+class FieldStore:
+    """Arrays of the declared fields.
+
+    ``store[name]`` is the NP1 (current) array, ``store.n(name)`` the N (previous step) array of a
+    two-step field. Point arrays have shape (num_points,) for scalars and (num_points, length)
+    otherwise; bond arrays (num_bonds,) or (num_bonds, length); global arrays (length,).
+    """
+
+    def __init__(self, num_points: int, num_bonds: int) -> None:
+        self.num_points = num_points
+        self.num_bonds = num_bonds
+        self.specs: dict[str, FieldSpec] = {}
+        self._np1: dict[str, np.ndarray] = {}
+        self._n: dict[str, np.ndarray] = {}
+
+    # declaration -----------------------------------------------------------------------------
+    def declare(self, spec: FieldSpec) -> None:
+        """Declare ``spec``; a field declared twice must agree in relation and length. Declaring
+        a field two-step where it was constant (or the reverse) makes it two-step."""
+        old = self.specs.get(spec.name)
+        if old is None:
+            self.specs[spec.name] = spec
+        else:
+            if not old.compatible(spec):
+                raise ValueError(f"field {spec.name} declared twice with different shapes: {old} vs {spec}")
+            temporal = Temporal.TWO_STEP if Temporal.TWO_STEP in (old.temporal, spec.temporal) else Temporal.CONSTANT
+            merged = FieldSpec(old.name, old.relation, old.length, temporal, old.halo or spec.halo, old.units or spec.units)
+            self.specs[spec.name] = merged
+            if spec.name in self._np1 and temporal is Temporal.TWO_STEP and spec.name not in self._n:
+                self._n[spec.name] = self._np1[spec.name].copy()
+        if spec.name not in self._np1:
+            self._allocate(self.specs[spec.name])
+
+    def declare_all(self, specs) -> None:
+        for spec in specs:
+            self.declare(spec)
+
+    def _shape(self, spec: FieldSpec) -> tuple[int, ...]:
+        rows = {Relation.BOND: self.num_bonds, Relation.GLOBAL: None}.get(spec.relation, self.num_points)
+        length = int(spec.length)
+        if rows is None:
+            return (length,)
+        return (rows,) if length == 1 else (rows, length)
+
+    def _allocate(self, spec: FieldSpec) -> None:
+        shape = self._shape(spec)
+        self._np1[spec.name] = np.zeros(shape)
+        if spec.temporal is Temporal.TWO_STEP:
+            self._n[spec.name] = np.zeros(shape)
+
+    # access ----------------------------------------------------------------------------------
+    def __contains__(self, name: str) -> bool:
+        return name in self._np1
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        try:
+            return self._np1[name]
+        except KeyError:
+            raise KeyError(f"field {name!r} was not declared by any model, compute or output") from None
+
+    def n(self, name: str) -> np.ndarray:
+        """The N (previous step) array of a two-step field."""
+        return self._n[name]
+
+    def np1(self, name: str) -> np.ndarray:
+        return self[name]
+
+    def get(self, name: str, default=None):
+        return self._np1.get(name, default)
+
+    def set(self, name: str, array: np.ndarray) -> None:
+        """Replace the NP1 array of a declared field (same shape)."""
+        if self._np1[name].shape != array.shape:
+            raise ValueError(f"field {name}: shape {array.shape} != {self._np1[name].shape}")
+        self._np1[name] = array
+
+    def names(self) -> list[str]:
+        return list(self._np1)
+
+    def swap(self) -> None:
+        """Advance two-step fields: N <-> NP1 by reference (no copy)."""
+        for name, n in self._n.items():
+            self._n[name], self._np1[name] = self._np1[name], n
+
+    def nbytes(self) -> int:
+        return sum(a.nbytes for a in self._np1.values()) + sum(a.nbytes for a in self._n.values())

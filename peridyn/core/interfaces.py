@@ -1,0 +1,254 @@
+"""The interfaces every model implements: built-in or third-party, each is a plugin.
+
+A model is one module: a frozen pydantic ``Params`` (aliases = Peridigm's deck names), pure
+``@njit(cache=True)`` kernels at module level, and a small class implementing one of the
+interfaces below that declares fields and wires arrays to kernels.
+
+Units are whatever consistent system the deck uses (SI in most decks): lengths L, time T, mass M.
+Force density is force per unit volume (M L^-2 T^-2), like Peridigm's ``Force_Density``.
+"""
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import numpy as np
+
+from .fields import FieldSpec, FieldStore
+from .params import ModelParams
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .discretization import Discretization
+    from .engine import Simulation
+    from .neighbors import NeighborList
+
+
+# ------------------------------------------------------------------------------------------------
+# Discretizations
+# ------------------------------------------------------------------------------------------------
+class DiscretizationReader(ABC):
+    """Reads or generates the points of a model.
+
+    ``name`` is the deck's ``Discretization > Type`` value. ``Params`` validates the
+    ``Discretization`` section without the keys every discretization shares (``Type``,
+    ``Influence Function``, ``Bond Filters``, ``Omit Bonds Between Blocks``).
+    """
+
+    name: ClassVar[str]
+    Params: ClassVar[type[ModelParams]]
+    #: whether ``Bond Filters`` and ``Omit Bonds Between Blocks`` may be used with this reader
+    supports_bond_filters: ClassVar[bool] = True
+
+    def __init__(self, params: ModelParams, *, deck_dir: Path) -> None:
+        self.params = params
+        self.deck_dir = deck_dir
+
+    @abstractmethod
+    def read(self) -> "Discretization":
+        """Return the points in mothership order; raise InputError for unreadable input."""
+
+
+# ------------------------------------------------------------------------------------------------
+# What a model sees of its block
+# ------------------------------------------------------------------------------------------------
+@dataclass
+class BlockView:
+    """The arrays one block's models work on.
+
+    Local point indices run over owned points first, then ghosts; the block owns the contiguous
+    range ``start:stop`` of owned points. Neighbor lists (``bonds``) are CSR over local points:
+    the bonds of point ``i`` are ``bonds.neighbors[bonds.offsets[i]:bonds.offsets[i+1]]``, and a
+    bond field's row ``b`` belongs to the bond at position ``b`` of that array.
+
+    ``closed`` is true when every neighbor of every point of the block belongs to the block and
+    is owned locally, so a material may compute both ends of each bond itself (a fused kernel).
+    """
+
+    name: str
+    block_id: int
+    start: int
+    stop: int
+    horizon: float  #: the block's horizon (constant horizons); per point: fields["Horizon"]
+    density: float
+    fields: FieldStore
+    bonds: "NeighborList"
+    num_owned: int
+    closed: bool = False
+    influence: Any = None  #: InfluenceFunction of the discretization
+    time: float = 0.0
+    time_step: float = 0.0
+    extras: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def num_points(self) -> int:
+        return self.stop - self.start
+
+
+# ------------------------------------------------------------------------------------------------
+# Materials
+# ------------------------------------------------------------------------------------------------
+class Material(ABC):
+    """A constitutive model for the bonds of one block.
+
+    Force evaluation (Peridigm's ``evalModel``) calls, for every block in block order, the
+    damage model first, then ``precompute`` (per-point quantities such as the dilatation, whose
+    fields are exchanged to ghosts afterwards), then either ``force_fused`` (when the block is
+    closed and the material provides it) or ``force_state``.
+
+    Central-force (ordinary state-based and bond-based) materials write a scalar force state:
+    ``t[b]`` is the magnitude of T_i<xi> for the bond b = i->j of one of the block's points, in
+    force per volume squared (M L^-5 T^-2 in SI: N/m^6), acting along the deformed bond
+    direction (y_j - y_i)/|y_j - y_i|. The engine then gathers, for every point,
+    ``f_i = sum_j (t_ij + t_ji) e_ij V_j`` (DESIGN.md decision 6).
+    """
+
+    name: ClassVar[str]
+    Params: ClassVar[type[ModelParams]]
+    #: "scalar": central force states in a per-bond scalar (see class docstring)
+    force_state_kind: ClassVar[str] = "scalar"
+
+    def __init__(self, params: ModelParams, *, horizon: float | None, options: dict[str, Any] | None = None) -> None:
+        self.params = params
+        self.horizon = horizon
+        self.options = options or {}
+
+    @property
+    @abstractmethod
+    def density(self) -> float:
+        """Mass density (M L^-3)."""
+
+    @property
+    @abstractmethod
+    def bulk_modulus(self) -> float:
+        """Bulk modulus K used by the critical time step estimate (M L^-1 T^-2)."""
+
+    def fields(self) -> list[FieldSpec]:
+        """Fields this material reads and writes beyond the ones every run has."""
+        return []
+
+    def initialize(self, block: BlockView) -> None:
+        """Once, in the reference configuration (e.g. weighted volume)."""
+
+    def precompute(self, block: BlockView) -> None:
+        """Per-point quantities needed by both ends of a bond (e.g. dilatation)."""
+
+    @abstractmethod
+    def force_state(self, block: BlockView, t: np.ndarray) -> None:
+        """Write the force state of every bond of the block's points into ``t`` (shape
+        (num_bonds,), see class docstring). Bonds of other blocks' points are not touched."""
+
+    def force_fused(self, block: BlockView, force_density: np.ndarray) -> bool:
+        """Optional fast path for closed blocks: write the internal force density of the
+        block's points into ``force_density[start:stop]`` (shape (n_local, 3), M L^-2 T^-2),
+        both ends of every bond included. Return False when not provided."""
+        return False
+
+    def stored_energy_density(self, block: BlockView, out: np.ndarray) -> None:
+        """Stored elastic energy per unit volume of the block's points into ``out[start:stop]``
+        (M L^-1 T^-2). Default: zero (Peridigm's base material)."""
+        out[block.start : block.stop] = 0.0
+
+
+# ------------------------------------------------------------------------------------------------
+# Damage
+# ------------------------------------------------------------------------------------------------
+class DamageModel(ABC):
+    """Decides bond damage (``Bond_Damage``, a two-step bond field in [0, 1]) and the point
+    ``Damage`` output. ``update`` runs inside every force evaluation, before the material, at
+    the current configuration."""
+
+    name: ClassVar[str]
+    Params: ClassVar[type[ModelParams]]
+
+    def __init__(self, params: ModelParams, *, options: dict[str, Any] | None = None) -> None:
+        self.params = params
+        self.options = options or {}
+
+    def fields(self) -> list[FieldSpec]:
+        from .fields import Relation, Temporal
+
+        return [
+            FieldSpec("Bond_Damage", Relation.BOND, 1, Temporal.TWO_STEP),
+            FieldSpec("Damage", Relation.ELEMENT, 1, Temporal.TWO_STEP),
+        ]
+
+    def initialize(self, block: BlockView) -> None:
+        """Once, before the first force evaluation."""
+
+    def begin_step(self, block: BlockView, time: float) -> None:
+        """At the start of every explicit step (Peridigm re-creates damage models there)."""
+
+    @abstractmethod
+    def update(self, block: BlockView) -> None:
+        """Update ``Bond_Damage`` (NP1) and ``Damage`` (NP1) of the block's points."""
+
+
+# ------------------------------------------------------------------------------------------------
+# Contact (interface only; models come with the contact issue)
+# ------------------------------------------------------------------------------------------------
+class ContactModel(ABC):
+    """Short-range forces between points that are not bonded, found by a search in the deformed
+    configuration. ``force`` adds contact force density (M L^-2 T^-2) for the given pairs."""
+
+    name: ClassVar[str]
+    Params: ClassVar[type[ModelParams]]
+
+    def __init__(self, params: ModelParams, *, options: dict[str, Any] | None = None) -> None:
+        self.params = params
+        self.options = options or {}
+
+    def fields(self) -> list[FieldSpec]:
+        return []
+
+    @abstractmethod
+    def force(self, pairs: np.ndarray, sim: "Simulation", force_density: np.ndarray) -> None:
+        """Add the force density of the (k, 2) local point pairs ``pairs``."""
+
+
+# ------------------------------------------------------------------------------------------------
+# Computes (output quantities)
+# ------------------------------------------------------------------------------------------------
+class Compute(ABC):
+    """An output quantity computed from the state, run only when an output writes it.
+
+    ``name`` is the output variable (``Kinetic_Energy``) or, for parametrised classes, the
+    ``Compute Class`` value (``Block_Data``) in ``Compute Class Parameters``.
+    """
+
+    name: ClassVar[str]
+    Params: ClassVar[type[ModelParams] | None] = None
+
+    def __init__(self, params: ModelParams | None = None, *, label: str | None = None) -> None:
+        self.params = params
+        self.label = label
+
+    @abstractmethod
+    def outputs(self, sim: "Simulation") -> list[FieldSpec]:
+        """The fields this compute fills (they are allocated when the compute is used)."""
+
+    def initialize(self, sim: "Simulation") -> None:
+        """Once, after materials and damage models are initialized."""
+
+    @abstractmethod
+    def compute(self, sim: "Simulation") -> None:
+        """Fill the output fields from the current (NP1) state."""
+
+
+# ------------------------------------------------------------------------------------------------
+# Solvers
+# ------------------------------------------------------------------------------------------------
+class Solver(ABC):
+    """A time integrator or static solver; solver sections run in deck order."""
+
+    name: ClassVar[str]
+    Params: ClassVar[type[ModelParams]]
+
+    def __init__(self, params: ModelParams, *, section: str = "Solver") -> None:
+        self.params = params
+        self.section = section
+
+    @abstractmethod
+    def run(self, sim: "Simulation") -> None:
+        """Advance ``sim`` from the solver's initial to its final time, writing output."""

@@ -1,0 +1,70 @@
+"""The only code that knows about ranks (DESIGN.md decision 5).
+
+A serial run uses :class:`SerialComm` and never imports mpi4py. A run started by an MPI
+launcher with more than one process gets an MPI communicator (``peridyn.core.mpi``).
+"""
+from __future__ import annotations
+
+import os
+from typing import Any
+
+import numpy as np
+
+#: environment variables MPI launchers set to the number of processes
+_SIZE_VARIABLES = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "MPI_LOCALNRANKS", "SLURM_NTASKS_PER_JOB", "MV2_COMM_WORLD_SIZE")
+
+
+def launched_with_mpi() -> bool:
+    """True when an MPI launcher started more than one process (no mpi4py import needed)."""
+    for name in _SIZE_VARIABLES[:3] + ("MV2_COMM_WORLD_SIZE",):
+        value = os.environ.get(name)
+        if value is not None:
+            try:
+                return int(value) > 1
+            except ValueError:
+                continue
+    return False
+
+
+class SerialComm:
+    """A one-process communicator with the collective operations the engine uses."""
+
+    rank = 0
+    size = 1
+    is_root = True
+
+    def allreduce_sum(self, value):
+        return value
+
+    def allreduce_min(self, value):
+        return value
+
+    def allreduce_max(self, value):
+        return value
+
+    def bcast(self, value: Any) -> Any:
+        return value
+
+    def gather_points(self, values: np.ndarray, owned_index: np.ndarray, total: int) -> np.ndarray | None:
+        """Assemble a per-point array in global (mothership) order on the root rank.
+
+        values: (n_owned, ...) this rank's owned values; owned_index: (n_owned,) their
+        mothership indices; returns (total, ...) on root, None elsewhere."""
+        out = np.empty((total,) + values.shape[1:], dtype=values.dtype)
+        out[owned_index] = values
+        return out
+
+    def barrier(self) -> None:
+        pass
+
+    def abort(self, code: int = 1) -> None:
+        raise SystemExit(code)
+
+
+def get_comm():
+    """The communicator of this process: MPI when launched with several ranks, else serial."""
+    if launched_with_mpi():
+        from .mpi import MPIComm  # imported only under an MPI launcher
+
+        return MPIComm()
+    return SerialComm()

@@ -1,0 +1,291 @@
+"""``Elastic``: the linear peridynamic solid (LPS), Peridigm's ordinary state-based elastic model.
+
+For point i with weighted volume m_i = sum_j omega zeta^2 V_j (reference configuration, never
+updated) and dilatation theta_i = sum_j 3 omega (1-d) zeta e V_j / m_i, the scalar force state
+of bond i->j is (PERIDIGM_SEMANTICS.md §4.2, damage factors exactly as Peridigm has them)
+
+    alpha = 15 mu / m_i,   c1 = omega theta_i (3 K / m_i - alpha / 3)
+    t_ij  = (1 - d) (c1 zeta + (1 - d) omega alpha e),      e = |eta| - zeta - a_T dT_i zeta
+
+with zeta = |xi| the reference and |eta| the deformed bond length, d the bond damage, a_T the
+thermal expansion coefficient and dT_i the owner point's temperature change. The force density
+of point i is f_i = sum_j (t_ij + t_ji) (eta_ij/|eta_ij|) V_j.
+
+Stored energy density: W_i = K theta_i^2 / 2 + (alpha / 2) sum_j (1-d) omega e_d^2 V_j with
+e_d = e - theta_i zeta / 3.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+from pydantic import Field
+
+from ..core.fields import FieldSpec, Relation, Temporal
+from ..core.influence import omega
+from ..core.interfaces import BlockView, Material
+from .moduli import IsotropicElasticParams
+
+EMPTY = np.zeros(0)
+
+
+class ElasticParams(IsotropicElasticParams):
+    thermal_expansion_coefficient: float | None = Field(
+        None, alias="Thermal Expansion Coefficient", description="linear thermal expansion coefficient (1/temperature)"
+    )
+    apply_ad_jacobian: bool = Field(
+        True, alias="Apply Automatic Differentiation Jacobian", description="implicit solvers: use the exact tangent (true) or finite differences (false)"
+    )
+    compute_partial_stress: bool = Field(False, alias="Compute Partial Stress", description="accepted for compatibility")
+    ignored_keys = frozenset({"Apply Shear Correction Factor", "Hourglass Coefficient"})
+
+
+# ------------------------------------------------------------------------------------------------
+# kernels (shapes: x, y (n, 3) L; volume (n,) L^3; offsets (n+1,), neighbors (nb,) int32;
+# per-bond arrays (nb,); per-point arrays (n,); empty arrays mean "feature off")
+# ------------------------------------------------------------------------------------------------
+@njit(cache=True, parallel=True, error_model="numpy")
+def weighted_volume_kernel(start, stop, offsets, neighbors, x, volume, omega_kind, delta, omega_table, m):
+    """m_i = sum_j (omega zeta^2) V_j (L^5) for i in [start, stop)."""
+    for i in prange(start, stop):
+        acc = 0.0
+        for b in range(offsets[i], offsets[i + 1]):
+            j = neighbors[b]
+            dx = x[j, 0] - x[i, 0]
+            dy = x[j, 1] - x[i, 1]
+            dz = x[j, 2] - x[i, 2]
+            z2 = dx * dx + dy * dy + dz * dz
+            w = omega(omega_kind, math.sqrt(z2), delta, omega_table, b)
+            acc += (w * z2) * volume[j]
+        m[i] = acc
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def dilatation_kernel(start, stop, offsets, neighbors, x, y, volume, m, omega_kind, delta, omega_table, bond_damage, dT, alpha_T, theta):
+    """theta_i = sum_j 3 omega (1-d) zeta e V_j / m_i (dimensionless) for i in [start, stop)."""
+    has_damage = bond_damage.shape[0] > 0
+    thermal = dT.shape[0] > 0
+    for i in prange(start, stop):
+        if m[i] == 0.0:
+            theta[i] = 0.0
+            continue
+        acc = 0.0
+        shift = alpha_T * dT[i] if thermal else 0.0
+        for b in range(offsets[i], offsets[i + 1]):
+            j = neighbors[b]
+            dx = x[j, 0] - x[i, 0]
+            dy = x[j, 1] - x[i, 1]
+            dz = x[j, 2] - x[i, 2]
+            zeta = math.sqrt(dx * dx + dy * dy + dz * dz)
+            ex = y[j, 0] - y[i, 0]
+            ey = y[j, 1] - y[i, 1]
+            ez = y[j, 2] - y[i, 2]
+            e = math.sqrt(ex * ex + ey * ey + ez * ez) - zeta
+            if thermal:
+                e -= shift * zeta
+            w = omega(omega_kind, zeta, delta, omega_table, b)
+            keep = 1.0 - bond_damage[b] if has_damage else 1.0
+            acc += ((((3.0 * w) * keep) * zeta) * e) * volume[j]
+        theta[i] = acc / m[i]
+
+
+@njit(cache=True, inline="always")
+def bond_force_scalar(theta, m, K, mu, w, zeta, e, keep):
+    """t = (1-d)(c1 zeta + (1-d) omega alpha e), Peridigm's LPS force state (M L^-5 T^-2)."""
+    if m == 0.0:
+        return 0.0
+    alpha = (15.0 * mu) / m
+    c1 = (w * theta) * ((3.0 * K) / m - alpha / 3.0)
+    return keep * (c1 * zeta + ((keep * w) * alpha) * e)
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def force_state_kernel(start, stop, offsets, neighbors, x, y, m, theta, K, mu, omega_kind, delta, omega_table, bond_damage, dT, alpha_T, t):
+    """Scalar force state t[b] of every bond of points [start, stop)."""
+    has_damage = bond_damage.shape[0] > 0
+    thermal = dT.shape[0] > 0
+    for i in prange(start, stop):
+        shift = alpha_T * dT[i] if thermal else 0.0
+        for b in range(offsets[i], offsets[i + 1]):
+            j = neighbors[b]
+            dx = x[j, 0] - x[i, 0]
+            dy = x[j, 1] - x[i, 1]
+            dz = x[j, 2] - x[i, 2]
+            zeta = math.sqrt(dx * dx + dy * dy + dz * dz)
+            ex = y[j, 0] - y[i, 0]
+            ey = y[j, 1] - y[i, 1]
+            ez = y[j, 2] - y[i, 2]
+            e = math.sqrt(ex * ex + ey * ey + ez * ez) - zeta
+            if thermal:
+                e -= shift * zeta
+            w = omega(omega_kind, zeta, delta, omega_table, b)
+            keep = 1.0 - bond_damage[b] if has_damage else 1.0
+            t[b] = bond_force_scalar(theta[i], m[i], K, mu, w, zeta, e, keep)
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def fused_force_kernel(start, stop, offsets, neighbors, reverse, x, y, volume, m, theta, K, mu, omega_kind, delta, omega_table, bond_damage, dT, alpha_T, f):
+    """f_i = sum_j (t_ij + t_ji) e_ij V_j for i in [start, stop), both bond ends computed here
+    (closed block, symmetric families: ``reverse`` gives bond j->i; it is only read with damage)."""
+    has_damage = bond_damage.shape[0] > 0
+    thermal = dT.shape[0] > 0
+    for i in prange(start, stop):
+        fx = 0.0
+        fy = 0.0
+        fz = 0.0
+        th_i = theta[i]
+        m_i = m[i]
+        shift_i = alpha_T * dT[i] if thermal else 0.0
+        for b in range(offsets[i], offsets[i + 1]):
+            j = neighbors[b]
+            dx = x[j, 0] - x[i, 0]
+            dy = x[j, 1] - x[i, 1]
+            dz = x[j, 2] - x[i, 2]
+            zeta = math.sqrt(dx * dx + dy * dy + dz * dz)
+            ex = y[j, 0] - y[i, 0]
+            ey = y[j, 1] - y[i, 1]
+            ez = y[j, 2] - y[i, 2]
+            L = math.sqrt(ex * ex + ey * ey + ez * ez)
+            e = L - zeta
+            e_i = e - shift_i * zeta if thermal else e
+            e_j = e - (alpha_T * dT[j]) * zeta if thermal else e
+            w = omega(omega_kind, zeta, delta, omega_table, b)
+            keep_i = 1.0
+            keep_j = 1.0
+            if has_damage:
+                keep_i = 1.0 - bond_damage[b]
+                keep_j = 1.0 - bond_damage[reverse[b]]
+            t = bond_force_scalar(th_i, m_i, K, mu, w, zeta, e_i, keep_i) + bond_force_scalar(theta[j], m[j], K, mu, w, zeta, e_j, keep_j)
+            if L > 0.0:
+                s = (t * volume[j]) / L
+                fx += s * ex
+                fy += s * ey
+                fz += s * ez
+        f[i, 0] = fx
+        f[i, 1] = fy
+        f[i, 2] = fz
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def stored_energy_kernel(start, stop, offsets, neighbors, x, y, volume, m, theta, K, mu, omega_kind, delta, omega_table, bond_damage, dT, alpha_T, W):
+    """W_i = K theta^2 / 2 + (15 mu / m_i / 2) sum_j (1-d) omega e_d^2 V_j (energy per volume)."""
+    has_damage = bond_damage.shape[0] > 0
+    thermal = dT.shape[0] > 0
+    for i in prange(start, stop):
+        if m[i] == 0.0:
+            W[i] = 0.0
+            continue
+        alpha = (15.0 * mu) / m[i]
+        th = theta[i]
+        acc = 0.0
+        for b in range(offsets[i], offsets[i + 1]):
+            j = neighbors[b]
+            dx = x[i, 0] - x[j, 0]
+            dy = x[i, 1] - x[j, 1]
+            dz = x[i, 2] - x[j, 2]
+            L0 = math.sqrt(dx * dx + dy * dy + dz * dz)
+            ex = y[i, 0] - y[j, 0]
+            ey = y[i, 1] - y[j, 1]
+            ez = y[i, 2] - y[j, 2]
+            L = math.sqrt(ex * ex + ey * ey + ez * ez)
+            if thermal:
+                L -= (alpha_T * dT[i]) * L0
+            ed = (L - L0) - (th * L0) / 3.0
+            keep = 1.0 - bond_damage[b] if has_damage else 1.0
+            acc += (((keep * omega(omega_kind, L0, delta, omega_table, b)) * ed) * ed) * volume[j]
+        W[i] = ((0.5 * K) * th) * th + (0.5 * alpha) * acc
+
+
+# ------------------------------------------------------------------------------------------------
+class Elastic(Material):
+    """Linear peridynamic solid (Peridigm's ``Elastic``)."""
+
+    name = "Elastic"
+    Params = ElasticParams
+
+    def __init__(self, params: ElasticParams, *, horizon: float | None, options=None) -> None:
+        super().__init__(params, horizon=horizon, options=options)
+        self.K, self.mu = params.moduli()
+        self.alpha_T = params.thermal_expansion_coefficient
+        self.omega_table = EMPTY
+
+    @property
+    def density(self) -> float:
+        return self.params.density
+
+    @property
+    def bulk_modulus(self) -> float:
+        return self.K
+
+    @property
+    def thermal(self) -> bool:
+        return self.alpha_T is not None
+
+    def fields(self) -> list[FieldSpec]:
+        specs = [
+            FieldSpec("Weighted_Volume", Relation.ELEMENT, 1, Temporal.CONSTANT, halo=True, units="L^5"),
+            FieldSpec("Dilatation", Relation.ELEMENT, 1, Temporal.CONSTANT, halo=True),
+        ]
+        if self.thermal:
+            specs += [FieldSpec("Temperature", Relation.NODE), FieldSpec("Temperature_Change", Relation.NODE, halo=True)]
+        return specs
+
+    def _common(self, block: BlockView):
+        s = block.fields
+        kind = block.influence.kind
+        return kind, block.horizon, self.omega_table
+
+    def _damage(self, block: BlockView) -> np.ndarray:
+        return block.fields["Bond_Damage"] if "Bond_Damage" in block.fields else EMPTY
+
+    def _dT(self, block: BlockView) -> tuple[np.ndarray, float]:
+        if self.thermal:
+            return block.fields["Temperature_Change"], float(self.alpha_T)
+        return EMPTY, 0.0
+
+    def initialize(self, block: BlockView) -> None:
+        s, nl = block.fields, block.bonds
+        if block.influence.needs_table:
+            self.omega_table = block.influence.table_for(nl.offsets, nl.neighbors, s["Model_Coordinates"], np.arange(block.start, block.stop), block.horizon)
+        kind, delta, table = self._common(block)
+        weighted_volume_kernel(block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Volume"], kind, delta, table, s["Weighted_Volume"])
+
+    def precompute(self, block: BlockView) -> None:
+        s, nl = block.fields, block.bonds
+        kind, delta, table = self._common(block)
+        dT, aT = self._dT(block)
+        dilatation_kernel(
+            block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Coordinates"], s["Volume"],
+            s["Weighted_Volume"], kind, delta, table, self._damage(block), dT, aT, s["Dilatation"],
+        )
+
+    def force_state(self, block: BlockView, t: np.ndarray) -> None:
+        s, nl = block.fields, block.bonds
+        kind, delta, table = self._common(block)
+        dT, aT = self._dT(block)
+        force_state_kernel(
+            block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Coordinates"],
+            s["Weighted_Volume"], s["Dilatation"], self.K, self.mu, kind, delta, table, self._damage(block), dT, aT, t,
+        )
+
+    def force_fused(self, block: BlockView, force_density: np.ndarray) -> bool:
+        s, nl = block.fields, block.bonds
+        kind, delta, table = self._common(block)
+        dT, aT = self._dT(block)
+        damage = self._damage(block)
+        reverse = nl.reverse() if damage.shape[0] else nl.neighbors
+        fused_force_kernel(
+            block.start, block.stop, nl.offsets, nl.neighbors, reverse, s["Model_Coordinates"], s["Coordinates"], s["Volume"],
+            s["Weighted_Volume"], s["Dilatation"], self.K, self.mu, kind, delta, table, damage, dT, aT, force_density,
+        )
+        return True
+
+    def stored_energy_density(self, block: BlockView, out: np.ndarray) -> None:
+        s, nl = block.fields, block.bonds
+        kind, delta, table = self._common(block)
+        dT, aT = self._dT(block)
+        stored_energy_kernel(
+            block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Coordinates"], s["Volume"],
+            s["Weighted_Volume"], s["Dilatation"], self.K, self.mu, kind, delta, table, self._damage(block), dT, aT, out,
+        )

@@ -1,0 +1,134 @@
+"""Pieces every solver shares: the section parameters and the energy / stability monitor."""
+from __future__ import annotations
+
+import logging
+import math
+
+import numpy as np
+from pydantic import Field
+
+from ..core.params import ModelParams
+from ..errors import InstabilityError
+
+log = logging.getLogger("peridyn.solver")
+
+
+class SolverSection(ModelParams):
+    """Keys of a solver section outside its method sublist."""
+
+    verbose: bool = Field(False, alias="Verbose", description="accepted; use --verbose for more output")
+    initial_time: float = Field(0.0, alias="Initial Time", description="start time of this solver (T)")
+    final_time: float = Field(1.0, alias="Final Time", description="end time of this solver (T)")
+    disable_heuristics: bool = Field(False, alias="Disable Heuristics", description="implicit solvers: no predictor, damping or line search heuristics")
+    initialize_predictor: bool = Field(
+        False, alias="Initialize Predictor From Previous Solver", description="implicit solvers: start from the previous solver's velocity"
+    )
+
+
+class EnergyMonitor:
+    """Tracks the energy balance of an explicit run and stops it when it goes unstable.
+
+    Kinetic energy K is exact; the stored energy E is integrated from the work of the internal
+    forces, dE = -sum V f . du (trapezoidal rule over each step); body forces do the work
+    W_b = sum V b . du; prescribed velocities do W_c = the kinetic energy they add when they
+    overwrite velocities. For a stable run K + E - W_b - W_c stays at its initial value up to
+    the integrator's O(dt^2) error; an unstable one makes it grow exponentially.
+
+    ``check`` runs every step (cheap: O(points)); a run stops when values become non-finite,
+    or when the balance error exceeds the energy scale by ``growth_limit`` while the kinetic
+    energy keeps growing over ``window`` steps.
+    """
+
+    def __init__(self, sim, dt: float, dt_estimate: float, *, window: int = 20, growth_limit: float = 1.0) -> None:
+        self.sim = sim
+        self.dt = dt
+        self.dt_estimate = dt_estimate
+        self.window = window
+        self.growth_limit = growth_limit
+        n = sim.num_owned
+        self.mass = sim.fields["Volume"][:n] * sim.density_per_point()[:n]
+        self.kinetic0 = sim.kinetic_energy()
+        self.kinetic = self.kinetic0
+        self.stored = 0.0  # relative to the start of this solver
+        self.external = 0.0
+        self.constraint = 0.0
+        self.scale = abs(self.kinetic0)
+        self.history: list[float] = []
+        self._f_prev = None
+        self.max_error = 0.0
+
+    # called by the integrator ------------------------------------------------------------------
+    def force_work(self, du: np.ndarray, f_old: np.ndarray, f_new: np.ndarray, b_old, b_new) -> None:
+        n = self.sim.num_owned
+        vol = self.sim.fields["Volume"][:n]
+        d = du[:n]
+        w_int = 0.5 * float(np.dot(vol, np.einsum("ij,ij->i", f_old[:n] + f_new[:n], d)))
+        self.stored -= self.sim.comm.allreduce_sum(w_int)
+        if b_old is not None:
+            w_b = 0.5 * float(np.dot(vol, np.einsum("ij,ij->i", b_old[:n] + b_new[:n], d)))
+            self.external += self.sim.comm.allreduce_sum(w_b)
+
+    def constraint_work(self, points: np.ndarray, v_before: np.ndarray, v_after: np.ndarray) -> None:
+        if points.size == 0:
+            return
+        m = self.mass[points]
+        dk = 0.5 * float(np.dot(m, np.einsum("ij,ij->i", v_after, v_after) - np.einsum("ij,ij->i", v_before, v_before)))
+        self.constraint += self.sim.comm.allreduce_sum(dk)
+
+    @property
+    def balance(self) -> float:
+        """K + E - W_b - W_c - K0: zero for an exact integration."""
+        return self.kinetic + self.stored - self.external - self.constraint - self.kinetic0
+
+    def check(self, step: int, time: float) -> None:
+        sim = self.sim
+        n = sim.num_owned
+        v = sim.fields["Velocity"][:n]
+        f = sim.fields["Force_Density"][:n]
+        total = float(np.sum(v)) + float(np.sum(f))
+        if not math.isfinite(sim.comm.allreduce_sum(total)):
+            self._fail_nonfinite(step, time)
+        self.kinetic = sim.kinetic_energy()
+        self.scale = max(self.scale, abs(self.kinetic), abs(self.stored), abs(self.external), abs(self.constraint))
+        err = abs(self.balance)
+        self.max_error = max(self.max_error, err / self.scale if self.scale > 0 else 0.0)
+        self.history.append(self.kinetic)
+        if len(self.history) > self.window:
+            self.history.pop(0)
+            growing = all(b > a for a, b in zip(self.history, self.history[1:]))
+            ref = max(abs(self.kinetic0), abs(self.external) + abs(self.constraint), 1e-300)
+            if growing and err > self.growth_limit * ref and self.history[-1] > 1e3 * self.history[0]:
+                self._fail_growth(step, time)
+
+    # diagnosis --------------------------------------------------------------------------------
+    def _worst_point(self) -> tuple[int, str]:
+        sim = self.sim
+        n = sim.num_owned
+        v = sim.fields["Velocity"][:n]
+        bad = ~np.isfinite(v).all(axis=1)
+        k = int(np.argmax(bad)) if bad.any() else int(np.argmax(np.einsum("ij,ij->i", v, v)))
+        gid = int(sim.gid[k]) + 1
+        x = sim.fields["Model_Coordinates"][k]
+        blk = sim.blocks[int(sim.block_index[k])].name
+        return k, f"point {gid} (block {blk}, x = {x[0]:.4g}, {x[1]:.4g}, {x[2]:.4g})"
+
+    def _advice(self) -> str:
+        ratio = self.dt / self.dt_estimate if self.dt_estimate > 0 else float("inf")
+        return (
+            f"the time step {self.dt:.4g} is {ratio:.2f} times the stable estimate {self.dt_estimate:.4g}; "
+            f"use 'Safety Factor' <= 1 or a 'Fixed dt' below {self.dt_estimate:.4g}"
+        )
+
+    def _fail_nonfinite(self, step: int, time: float) -> None:
+        _, where = self._worst_point()
+        raise InstabilityError(
+            f"the run went unstable at step {step} (t = {time:.6g}): non-finite velocity or force at {where}; " + self._advice()
+        )
+
+    def _fail_growth(self, step: int, time: float) -> None:
+        _, where = self._worst_point()
+        growth = self.history[-1] / self.history[0] if self.history[0] > 0 else float("inf")
+        raise InstabilityError(
+            f"the run went unstable at step {step} (t = {time:.6g}): kinetic energy grew {growth:.3g}x in the last {self.window} steps "
+            f"with no work to account for it (energy balance error {abs(self.balance):.3g}), fastest at {where}; " + self._advice()
+        )

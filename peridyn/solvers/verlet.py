@@ -1,0 +1,161 @@
+"""``Verlet``: explicit velocity-Verlet dynamics, step for step as Peridigm runs it
+(PERIDIGM_SEMANTICS.md §6).
+
+Time step: ``Fixed dt`` if given, else the Silling-Askari estimate
+min_i sqrt(2 rho / sum_j V_j c / |xi_ij|), c = 18 K / (pi delta^4); either is multiplied by
+``Safety Factor`` when given. The number of steps is floor((t_final - t_initial) / dt).
+"""
+from __future__ import annotations
+
+import logging
+import math
+import time as _time
+
+import numpy as np
+from pydantic import Field
+
+from ..core.interfaces import Solver
+from ..core.params import ModelParams
+from ..core.progress import Progress
+from .common import EnergyMonitor, SolverSection
+
+log = logging.getLogger("peridyn.solver")
+
+
+class VerletParams(ModelParams):
+    fixed_dt: float | None = Field(None, alias="Fixed dt", gt=0, description="time step (T); default: the critical time step estimate")
+    safety_factor: float | None = Field(None, alias="Safety Factor", gt=0, description="multiplies the time step (estimate or Fixed dt)")
+
+
+class VerletSection(SolverSection):
+    verlet: VerletParams = Field(alias="Verlet", description="explicit dynamics")
+
+
+class Verlet(Solver):
+    name = "Verlet"
+    Params = VerletSection
+
+    def time_step(self, sim) -> tuple[float, float]:
+        """(dt used, critical estimate)."""
+        p = self.params.verlet
+        dt_crit = sim.critical_time_step()
+        dt = p.fixed_dt if p.fixed_dt is not None else dt_crit
+        if p.safety_factor is not None:
+            dt = dt * p.safety_factor
+        if not math.isfinite(dt) or dt <= 0:
+            from ..errors import InputError
+
+            raise InputError(
+                "cannot estimate a stable time step: no point has a neighbor",
+                file=sim.deck.file,
+                path=(self.section, "Verlet"),
+                fix="give 'Fixed dt' or check the horizon",
+            )
+        if p.safety_factor is not None and p.safety_factor > 1.0:
+            log.warning(
+                "%s: Safety Factor %.3g > 1: the critical time step estimate is conservative (the Verlet limit is typically "
+                "1.8-2.6 times it), but a run this close to the limit can go unstable",
+                self.section,
+                p.safety_factor,
+            )
+        elif p.fixed_dt is not None and dt > dt_crit:
+            log.warning("%s: the time step %.4g exceeds the critical time step estimate %.4g (ratio %.2f)", self.section, dt, dt_crit, dt / dt_crit)
+        return dt, dt_crit
+
+    def run(self, sim) -> None:
+        s = self.params
+        dt, dt_crit = self.time_step(sim)
+        t0, tf = s.initial_time, s.final_time
+        nsteps = int(math.floor((tf - t0) / dt)) if tf > t0 else 0
+        dt2 = dt / 2.0
+        n = sim.num_local
+        f = sim.fields
+        x, y, u, v = f["Model_Coordinates"], f["Coordinates"], f["Displacement"], f["Velocity"]
+        has_b = "External_Force_Density" in f
+        rho = sim.density_per_point()[:, None]
+        a = getattr(sim, "acceleration", None)
+        if a is None:
+            a = sim.acceleration = np.zeros((n, 3))
+        log.info("%s: Verlet, dt = %.6g (critical estimate %.6g), %d steps from t = %.6g to %.6g", self.section, dt, dt_crit, nsteps, t0, t0 + nsteps * dt)
+
+        # step 0
+        sim.time_prev = sim.time = t = t0
+        sim.load_data(t)
+        sim.evaluate_forces()
+        sim.apply_kinematic(t, t)
+        sim.apply_body_forces(t)
+        self._acceleration(a, f["Force_Density"], f["External_Force_Density"] if has_b else None, rho)
+        sim.load_data(t)
+        sim.write_output(t)
+
+        monitor = EnergyMonitor(sim, dt, dt_crit)
+        sim.energy = monitor
+        presc = sim.prescribed_points
+        f_old = np.empty_like(f["Force_Density"])
+        b_old = np.empty_like(f["External_Force_Density"]) if has_b else None
+        du = np.empty_like(u)
+        progress = Progress(nsteps, f"{self.section}", enabled=sim.progress)
+        wall0 = _time.perf_counter()
+        force_time = 0.0
+        for step in range(1, nsteps + 1):
+            t_prev = t
+            t = t0 + float(step) * dt
+            sim.time_prev, sim.time = t_prev, t
+            sim.begin_step(t)
+            v += dt2 * a
+            if presc.size:
+                v_before = v[presc].copy()
+            sim.apply_kinematic(t, t_prev)
+            if presc.size:
+                monitor.constraint_work(presc, v_before, v[presc])
+            np.copyto(f_old, f["Force_Density"])
+            if has_b:
+                np.copyto(b_old, f["External_Force_Density"])
+            sim.apply_body_forces(t)
+            np.multiply(v, dt, out=du)
+            np.add(x, u, out=y)
+            y += du
+            u += du
+            sim.load_data(t)
+            tf0 = _time.perf_counter()
+            sim.evaluate_forces()
+            force_time += _time.perf_counter() - tf0
+            self._acceleration(a, f["Force_Density"], f["External_Force_Density"] if has_b else None, rho)
+            v += dt2 * a
+            monitor.force_work(du, f_old, f["Force_Density"], b_old, f["External_Force_Density"] if has_b else None)
+            sim.load_data(t)
+            sim.write_output(t)
+            sim.advance()
+            monitor.check(step, t)
+            progress.update(step)
+        progress.close()
+        wall = _time.perf_counter() - wall0
+        sim.stats.setdefault("solvers", []).append(
+            {
+                "section": self.section,
+                "method": "Verlet",
+                "steps": nsteps,
+                "dt": dt,
+                "dt_estimate": dt_crit,
+                "wall": wall,
+                "force_time": force_time,
+                "bond_evaluations": nsteps * sim.bonds.num_bonds,
+                "point_steps": nsteps * sim.num_global,
+                "energy": {
+                    "kinetic_initial": monitor.kinetic0,
+                    "kinetic": monitor.kinetic,
+                    "stored_from_work": monitor.stored,
+                    "external_work": monitor.external,
+                    "constraint_work": monitor.constraint,
+                    "balance_error": monitor.balance,
+                    "max_relative_error": monitor.max_error,
+                },
+            }
+        )
+
+    @staticmethod
+    def _acceleration(a, force, body, rho) -> None:
+        np.copyto(a, force)
+        if body is not None:
+            a += body
+        a /= rho
