@@ -74,6 +74,7 @@ class OutputManager:
 
     def __init__(self, sim: "Simulation") -> None:
         self.sim = sim
+        sim.outputs = self  # computes look up variables through it while being checked
         deck = sim.deck
         registry = deck.registry
         errors: list[InputError] = []
