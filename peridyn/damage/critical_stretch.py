@@ -22,9 +22,10 @@ EMPTY = np.zeros(0)
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def critical_stretch_kernel(start, stop, offsets, neighbors, x, y, s_c, d_n, d_np1, copy_previous, dT, alpha_T, damage):
+def critical_stretch_kernel(start, stop, offsets, neighbors, zeta, y, s_c, d_n, d_np1, copy_previous, dT, alpha_T, damage):
     """Update bond damage d_np1 (from d_n when ``copy_previous``) and the point damage of
-    points [start, stop). Shapes: x, y (n, 3); d_n, d_np1 (nb,); damage (n,); dT (n,) or empty."""
+    points [start, stop). Shapes: zeta (nb,) reference bond lengths; y (n, 3); d_n, d_np1 (nb,);
+    damage (n,); dT (n,) or empty."""
     thermal = dT.shape[0] > 0
     for i in prange(start, stop):
         acc = 0.0
@@ -33,10 +34,7 @@ def critical_stretch_kernel(start, stop, offsets, neighbors, x, y, s_c, d_n, d_n
         for b in range(lo, hi):
             j = neighbors[b]
             d = d_n[b] if copy_previous else d_np1[b]
-            a0 = x[i, 0] - x[j, 0]
-            a1 = x[i, 1] - x[j, 1]
-            a2 = x[i, 2] - x[j, 2]
-            L0 = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+            L0 = zeta[b]
             c0 = y[i, 0] - y[j, 0]
             c1 = y[i, 1] - y[j, 1]
             c2 = y[i, 2] - y[j, 2]
@@ -84,7 +82,7 @@ class CriticalStretch(DamageModel):
         s, nl = block.fields, block.bonds
         dT = s["Temperature_Change"] if self.alpha_T is not None else EMPTY
         critical_stretch_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Coordinates"], self.s_c,
+            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], self.s_c,
             s.n("Bond_Damage"), s["Bond_Damage"], self.copy_previous, dT, float(self.alpha_T or 0.0), s["Damage"],
         )
 

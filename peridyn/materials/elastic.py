@@ -4,8 +4,8 @@ For point i with weighted volume m_i = sum_j omega zeta^2 V_j (reference configu
 updated) and dilatation theta_i = sum_j 3 omega (1-d) zeta e V_j / m_i, the scalar force state
 of bond i->j is (PERIDIGM_SEMANTICS.md §4.2, damage factors exactly as Peridigm has them)
 
-    alpha = 15 mu / m_i,   c1 = omega theta_i (3 K / m_i - alpha / 3)
-    t_ij  = (1 - d) (c1 zeta + (1 - d) omega alpha e),      e = |eta| - zeta - a_T dT_i zeta
+    a_i  = 15 mu / m_i,   c_i = theta_i (3 K / m_i - a_i / 3)
+    t_ij = (1 - d) omega (c_i zeta + (1 - d) a_i e),      e = |eta| - zeta - a_T dT_i zeta
 
 with zeta = |xi| the reference and |eta| the deformed bond length, d the bond damage, a_T the
 thermal expansion coefficient and dT_i the owner point's temperature change. The force density
@@ -62,8 +62,9 @@ def weighted_volume_kernel(start, stop, offsets, neighbors, x, volume, omega_kin
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def dilatation_kernel(start, stop, offsets, neighbors, x, y, volume, m, omega_kind, delta, omega_table, bond_damage, dT, alpha_T, theta):
-    """theta_i = sum_j 3 omega (1-d) zeta e V_j / m_i (dimensionless) for i in [start, stop)."""
+def dilatation_kernel(start, stop, offsets, neighbors, zeta, y, volume, m, omega_kind, delta, omega_table, bond_damage, dT, alpha_T, theta):
+    """theta_i = sum_j 3 omega (1-d) zeta e V_j / m_i (dimensionless) for i in [start, stop).
+    zeta (nb,) reference bond lengths."""
     has_damage = bond_damage.shape[0] > 0
     thermal = dT.shape[0] > 0
     for i in prange(start, stop):
@@ -72,91 +73,97 @@ def dilatation_kernel(start, stop, offsets, neighbors, x, y, volume, m, omega_ki
             continue
         acc = 0.0
         shift = alpha_T * dT[i] if thermal else 0.0
+        yi0 = y[i, 0]
+        yi1 = y[i, 1]
+        yi2 = y[i, 2]
         for b in range(offsets[i], offsets[i + 1]):
             j = neighbors[b]
-            dx = x[j, 0] - x[i, 0]
-            dy = x[j, 1] - x[i, 1]
-            dz = x[j, 2] - x[i, 2]
-            zeta = math.sqrt(dx * dx + dy * dy + dz * dz)
-            ex = y[j, 0] - y[i, 0]
-            ey = y[j, 1] - y[i, 1]
-            ez = y[j, 2] - y[i, 2]
-            e = math.sqrt(ex * ex + ey * ey + ez * ez) - zeta
+            z = zeta[b]
+            ex = y[j, 0] - yi0
+            ey = y[j, 1] - yi1
+            ez = y[j, 2] - yi2
+            e = math.sqrt(ex * ex + ey * ey + ez * ez) - z
             if thermal:
-                e -= shift * zeta
-            w = omega(omega_kind, zeta, delta, omega_table, b)
+                e -= shift * z
+            w = omega(omega_kind, z, delta, omega_table, b)
             keep = 1.0 - bond_damage[b] if has_damage else 1.0
-            acc += ((((3.0 * w) * keep) * zeta) * e) * volume[j]
+            acc += ((((3.0 * w) * keep) * z) * e) * volume[j]
         theta[i] = acc / m[i]
 
 
-@njit(cache=True, inline="always")
-def bond_force_scalar(theta, m, K, mu, w, zeta, e, keep):
-    """t = (1-d)(c1 zeta + (1-d) omega alpha e), Peridigm's LPS force state (M L^-5 T^-2)."""
-    if m == 0.0:
-        return 0.0
-    alpha = (15.0 * mu) / m
-    c1 = (w * theta) * ((3.0 * K) / m - alpha / 3.0)
-    return keep * (c1 * zeta + ((keep * w) * alpha) * e)
+@njit(cache=True, parallel=True, error_model="numpy")
+def coefficients_kernel(start, stop, m, theta, K, mu, a, c):
+    """Per-point force-state coefficients: a_i = 15 mu / m_i, c_i = theta_i (3 K / m_i - a_i / 3),
+    so that t_ij = (1-d) omega (c_i zeta + (1-d) a_i e). Zero for points without neighbors."""
+    for i in prange(start, stop):
+        if m[i] == 0.0:
+            a[i] = 0.0
+            c[i] = 0.0
+        else:
+            ai = (15.0 * mu) / m[i]
+            a[i] = ai
+            c[i] = theta[i] * ((3.0 * K) / m[i] - ai / 3.0)
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def force_state_kernel(start, stop, offsets, neighbors, x, y, m, theta, K, mu, omega_kind, delta, omega_table, bond_damage, dT, alpha_T, t):
-    """Scalar force state t[b] of every bond of points [start, stop)."""
+def force_state_kernel(start, stop, offsets, neighbors, zeta, y, a, c, omega_kind, delta, omega_table, bond_damage, dT, alpha_T, t):
+    """Scalar force state t[b] (M L^-5 T^-2) of every bond of points [start, stop)."""
     has_damage = bond_damage.shape[0] > 0
     thermal = dT.shape[0] > 0
     for i in prange(start, stop):
         shift = alpha_T * dT[i] if thermal else 0.0
+        ai = a[i]
+        ci = c[i]
+        yi0 = y[i, 0]
+        yi1 = y[i, 1]
+        yi2 = y[i, 2]
         for b in range(offsets[i], offsets[i + 1]):
             j = neighbors[b]
-            dx = x[j, 0] - x[i, 0]
-            dy = x[j, 1] - x[i, 1]
-            dz = x[j, 2] - x[i, 2]
-            zeta = math.sqrt(dx * dx + dy * dy + dz * dz)
-            ex = y[j, 0] - y[i, 0]
-            ey = y[j, 1] - y[i, 1]
-            ez = y[j, 2] - y[i, 2]
-            e = math.sqrt(ex * ex + ey * ey + ez * ez) - zeta
+            z = zeta[b]
+            ex = y[j, 0] - yi0
+            ey = y[j, 1] - yi1
+            ez = y[j, 2] - yi2
+            e = math.sqrt(ex * ex + ey * ey + ez * ez) - z
             if thermal:
-                e -= shift * zeta
-            w = omega(omega_kind, zeta, delta, omega_table, b)
+                e -= shift * z
+            w = omega(omega_kind, z, delta, omega_table, b)
             keep = 1.0 - bond_damage[b] if has_damage else 1.0
-            t[b] = bond_force_scalar(theta[i], m[i], K, mu, w, zeta, e, keep)
+            t[b] = keep * (w * (ci * z + keep * ai * e))
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def fused_force_kernel(start, stop, offsets, neighbors, reverse, x, y, volume, m, theta, K, mu, omega_kind, delta, omega_table, bond_damage, dT, alpha_T, f):
+def fused_force_kernel(start, stop, offsets, neighbors, reverse, zeta, y, volume, a, c, omega_kind, delta, omega_table, bond_damage, dT, alpha_T, f):
     """f_i = sum_j (t_ij + t_ji) e_ij V_j for i in [start, stop), both bond ends computed here
-    (closed block, symmetric families: ``reverse`` gives bond j->i; it is only read with damage)."""
+    (closed block, symmetric families: ``reverse`` gives bond j->i; it is read only with damage)."""
     has_damage = bond_damage.shape[0] > 0
     thermal = dT.shape[0] > 0
     for i in prange(start, stop):
         fx = 0.0
         fy = 0.0
         fz = 0.0
-        th_i = theta[i]
-        m_i = m[i]
+        ai = a[i]
+        ci = c[i]
         shift_i = alpha_T * dT[i] if thermal else 0.0
+        yi0 = y[i, 0]
+        yi1 = y[i, 1]
+        yi2 = y[i, 2]
         for b in range(offsets[i], offsets[i + 1]):
             j = neighbors[b]
-            dx = x[j, 0] - x[i, 0]
-            dy = x[j, 1] - x[i, 1]
-            dz = x[j, 2] - x[i, 2]
-            zeta = math.sqrt(dx * dx + dy * dy + dz * dz)
-            ex = y[j, 0] - y[i, 0]
-            ey = y[j, 1] - y[i, 1]
-            ez = y[j, 2] - y[i, 2]
+            z = zeta[b]
+            ex = y[j, 0] - yi0
+            ey = y[j, 1] - yi1
+            ez = y[j, 2] - yi2
             L = math.sqrt(ex * ex + ey * ey + ez * ez)
-            e = L - zeta
-            e_i = e - shift_i * zeta if thermal else e
-            e_j = e - (alpha_T * dT[j]) * zeta if thermal else e
-            w = omega(omega_kind, zeta, delta, omega_table, b)
-            keep_i = 1.0
-            keep_j = 1.0
-            if has_damage:
-                keep_i = 1.0 - bond_damage[b]
-                keep_j = 1.0 - bond_damage[reverse[b]]
-            t = bond_force_scalar(th_i, m_i, K, mu, w, zeta, e_i, keep_i) + bond_force_scalar(theta[j], m[j], K, mu, w, zeta, e_j, keep_j)
+            e = L - z
+            w = omega(omega_kind, z, delta, omega_table, b)
+            if has_damage or thermal:
+                e_i = e - shift_i * z if thermal else e
+                e_j = e - (alpha_T * dT[j]) * z if thermal else e
+                k_i = 1.0 - bond_damage[b] if has_damage else 1.0
+                k_j = 1.0 - bond_damage[reverse[b]] if has_damage else 1.0
+                t = w * (k_i * (ci * z + k_i * ai * e_i) + k_j * (c[j] * z + k_j * a[j] * e_j))
+            else:
+                t = w * ((ci + c[j]) * z + (ai + a[j]) * e)
             if L > 0.0:
                 s = (t * volume[j]) / L
                 fx += s * ex
@@ -209,6 +216,8 @@ class Elastic(Material):
         self.K, self.mu = params.moduli()
         self.alpha_T = params.thermal_expansion_coefficient
         self.omega_table = EMPTY
+        self._a: np.ndarray | None = None
+        self._c: np.ndarray | None = None
 
     @property
     def density(self) -> float:
@@ -256,17 +265,27 @@ class Elastic(Material):
         kind, delta, table = self._common(block)
         dT, aT = self._dT(block)
         dilatation_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Coordinates"], s["Volume"],
+            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], s["Volume"],
             s["Weighted_Volume"], kind, delta, table, self._damage(block), dT, aT, s["Dilatation"],
         )
+
+    def _coefficients(self, block: BlockView) -> tuple[np.ndarray, np.ndarray]:
+        s = block.fields
+        n = s.num_points
+        if self._a is None or self._a.shape[0] != n:
+            self._a = np.zeros(n)
+            self._c = np.zeros(n)
+        coefficients_kernel(block.start, block.stop, s["Weighted_Volume"], s["Dilatation"], self.K, self.mu, self._a, self._c)
+        return self._a, self._c
 
     def force_state(self, block: BlockView, t: np.ndarray) -> None:
         s, nl = block.fields, block.bonds
         kind, delta, table = self._common(block)
         dT, aT = self._dT(block)
+        a, c = self._coefficients(block)
         force_state_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Coordinates"],
-            s["Weighted_Volume"], s["Dilatation"], self.K, self.mu, kind, delta, table, self._damage(block), dT, aT, t,
+            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], a, c,
+            kind, delta, table, self._damage(block), dT, aT, t,
         )
 
     def force_fused(self, block: BlockView, force_density: np.ndarray) -> bool:
@@ -275,9 +294,10 @@ class Elastic(Material):
         dT, aT = self._dT(block)
         damage = self._damage(block)
         reverse = nl.reverse() if damage.shape[0] else nl.neighbors
+        a, c = self._coefficients(block)
         fused_force_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, reverse, s["Model_Coordinates"], s["Coordinates"], s["Volume"],
-            s["Weighted_Volume"], s["Dilatation"], self.K, self.mu, kind, delta, table, damage, dT, aT, force_density,
+            block.start, block.stop, nl.offsets, nl.neighbors, reverse, s["Bond_Length"], s["Coordinates"], s["Volume"],
+            a, c, kind, delta, table, damage, dT, aT, force_density,
         )
         return True
 

@@ -59,16 +59,13 @@ class ElasticBondBasedParams(ModelParams):
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def force_state_kernel(start, stop, offsets, neighbors, x, y, c, bond_damage, t):
+def force_state_kernel(start, stop, offsets, neighbors, zeta, y, c, bond_damage, t):
     """t[b] = 0.5 (1-d) s c for the bonds of points [start, stop) (force per volume^2)."""
     has_damage = bond_damage.shape[0] > 0
     for i in prange(start, stop):
         for b in range(offsets[i], offsets[i + 1]):
             j = neighbors[b]
-            dx = x[j, 0] - x[i, 0]
-            dy = x[j, 1] - x[i, 1]
-            dz = x[j, 2] - x[i, 2]
-            L0 = math.sqrt(dx * dx + dy * dy + dz * dz)
+            L0 = zeta[b]
             ex = y[j, 0] - y[i, 0]
             ey = y[j, 1] - y[i, 1]
             ez = y[j, 2] - y[i, 2]
@@ -78,7 +75,7 @@ def force_state_kernel(start, stop, offsets, neighbors, x, y, c, bond_damage, t)
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def fused_force_kernel(start, stop, offsets, neighbors, reverse, x, y, volume, c, bond_damage, f):
+def fused_force_kernel(start, stop, offsets, neighbors, reverse, zeta, y, volume, c, bond_damage, f):
     """f_i = sum_j (t_ij + t_ji) eta/|eta| V_j for points [start, stop) of a closed block."""
     has_damage = bond_damage.shape[0] > 0
     for i in prange(start, stop):
@@ -87,10 +84,7 @@ def fused_force_kernel(start, stop, offsets, neighbors, reverse, x, y, volume, c
         fz = 0.0
         for b in range(offsets[i], offsets[i + 1]):
             j = neighbors[b]
-            dx = x[j, 0] - x[i, 0]
-            dy = x[j, 1] - x[i, 1]
-            dz = x[j, 2] - x[i, 2]
-            L0 = math.sqrt(dx * dx + dy * dy + dz * dz)
+            L0 = zeta[b]
             ex = y[j, 0] - y[i, 0]
             ey = y[j, 1] - y[i, 1]
             ez = y[j, 2] - y[i, 2]
@@ -111,17 +105,14 @@ def fused_force_kernel(start, stop, offsets, neighbors, reverse, x, y, volume, c
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def stored_energy_kernel(start, stop, offsets, neighbors, x, y, volume, c, bond_damage, W):
+def stored_energy_kernel(start, stop, offsets, neighbors, zeta, y, volume, c, bond_damage, W):
     """W_i = sum_j (1-d) c s^2 |xi| V_j / 4 (energy per volume)."""
     has_damage = bond_damage.shape[0] > 0
     for i in prange(start, stop):
         acc = 0.0
         for b in range(offsets[i], offsets[i + 1]):
             j = neighbors[b]
-            dx = x[j, 0] - x[i, 0]
-            dy = x[j, 1] - x[i, 1]
-            dz = x[j, 2] - x[i, 2]
-            L0 = math.sqrt(dx * dx + dy * dy + dz * dz)
+            L0 = zeta[b]
             ex = y[j, 0] - y[i, 0]
             ey = y[j, 1] - y[i, 1]
             ez = y[j, 2] - y[i, 2]
@@ -162,17 +153,17 @@ class ElasticBondBased(Material):
 
     def force_state(self, block: BlockView, t: np.ndarray) -> None:
         s, nl = block.fields, block.bonds
-        force_state_kernel(block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Coordinates"], self.c, self._damage(block), t)
+        force_state_kernel(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], self.c, self._damage(block), t)
 
     def force_fused(self, block: BlockView, force_density: np.ndarray) -> bool:
         s, nl = block.fields, block.bonds
         damage = self._damage(block)
         reverse = nl.reverse() if damage.shape[0] else nl.neighbors
         fused_force_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, reverse, s["Model_Coordinates"], s["Coordinates"], s["Volume"], self.c, damage, force_density
+            block.start, block.stop, nl.offsets, nl.neighbors, reverse, s["Bond_Length"], s["Coordinates"], s["Volume"], self.c, damage, force_density
         )
         return True
 
     def stored_energy_density(self, block: BlockView, out: np.ndarray) -> None:
         s, nl = block.fields, block.bonds
-        stored_energy_kernel(block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Coordinates"], s["Volume"], self.c, self._damage(block), out)
+        stored_energy_kernel(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], s["Volume"], self.c, self._damage(block), out)

@@ -74,7 +74,7 @@ class Registry:
                 pairs = impl.function() or []
                 for name, target in pairs:
                     old = self.entries[kind].get(name)
-                    if old is not None and old.target != target:
+                    if old is not None and old.plugin != impl.plugin_name:
                         problems.append(
                             f"two plugins provide the {human} {name!r}: {old.plugin!r} ({old.target}) "
                             f"and {impl.plugin_name!r} ({target}); uninstall one of them"
@@ -158,7 +158,8 @@ def build_registry(*, autoload: bool | None = None, extra_plugins: tuple[Any, ..
                 continue
             pm.register(plugin, name=ep.name)
     for plugin in extra_plugins:
-        pm.register(plugin)
+        if not pm.is_registered(plugin):
+            pm.register(plugin)
     pm.check_pending()
     return Registry(pm, failed)
 

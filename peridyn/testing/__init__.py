@@ -1,0 +1,20 @@
+"""Tools for plugin authors: build small models in memory and run the conformance suites.
+
+A material plugin's tests can be as short as::
+
+    from peridyn.testing import MaterialConformance
+
+    class TestMyMaterial(MaterialConformance):
+        material = "My Material"
+        params = {"Density": 1000.0, "Bulk Modulus": 1.0e9}
+
+pytest collects the inherited checks: parameter validation, zero force under rigid motion,
+momentum conservation, agreement of the fused and generic force paths, independence from the
+thread count, and forces that are the derivative of the stored energy.
+"""
+from __future__ import annotations
+
+from .harness import build_simulation, cube_deck, isolated_registry
+from .suites import DamageConformance, MaterialConformance
+
+__all__ = ["build_simulation", "cube_deck", "isolated_registry", "MaterialConformance", "DamageConformance"]

@@ -1,0 +1,77 @@
+"""Small in-memory models for tests."""
+from __future__ import annotations
+
+import contextlib
+import copy
+from pathlib import Path
+from typing import Any
+
+from ..plugins import manager
+
+
+def cube_deck(
+    material: dict[str, Any],
+    *,
+    n: int = 6,
+    spacing: float = 1.0,
+    horizon_factor: float = 3.015,
+    damage: dict[str, Any] | None = None,
+    spherical: bool = True,
+    extra: dict[str, Any] | None = None,
+) -> dict[str, Any]:
+    """A deck tree: an n^3 PdQuickGrid cube of the given spacing, one block of ``material``
+    (a Materials entry, ``Material Model`` included), optional damage model, no solver."""
+    length = n * spacing
+    tree: dict[str, Any] = {
+        "Discretization": {
+            "Type": "PdQuickGrid",
+            "TensorProduct3DMeshGenerator": {
+                "Type": "PdQuickGrid",
+                "X Origin": 0.0,
+                "Y Origin": 0.0,
+                "Z Origin": 0.0,
+                "X Length": length,
+                "Y Length": length,
+                "Z Length": length,
+                "Number Points X": n,
+                "Number Points Y": n,
+                "Number Points Z": n,
+            },
+        },
+        "Materials": {"M": dict(material)},
+        "Blocks": {"B": {"Block Names": "block_1", "Material": "M", "Horizon": horizon_factor * spacing}},
+    }
+    if spherical:
+        tree["Discretization"]["NeighborhoodType"] = "Spherical"
+    if damage is not None:
+        tree["Damage Models"] = {"D": dict(damage)}
+        tree["Blocks"]["B"]["Damage Model"] = "D"
+    if extra:
+        tree.update(copy.deepcopy(extra))
+    return tree
+
+
+def build_simulation(tree: dict[str, Any], *, directory: str | Path = ".", registry=None, output_dir: str | Path | None = None):
+    """Validate a deck tree (as loaded from YAML, without the ``Peridigm`` key) and build the
+    model, ready for solvers. File names in the deck are relative to ``directory``."""
+    from ..core.deck import parse_deck
+    from ..core.engine import Simulation
+    from ..io.deckfile import DeckSource
+
+    directory = Path(directory)
+    source = DeckSource(copy.deepcopy(tree), directory / "<memory>.yaml", "yaml", {})
+    deck = parse_deck(source, registry)
+    return Simulation(deck, output_dir=output_dir or directory, progress=False)
+
+
+@contextlib.contextmanager
+def isolated_registry(*plugins: Any, autoload: bool = False):
+    """Within the block, the process-wide registry holds the built-ins plus ``plugins`` (and
+    installed third-party plugins only when ``autoload``)."""
+    old = manager._REGISTRY
+    reg = manager.build_registry(autoload=autoload, extra_plugins=plugins)
+    manager.reset_registry(reg)
+    try:
+        yield reg
+    finally:
+        manager.reset_registry(old)

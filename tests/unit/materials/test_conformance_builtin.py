@@ -1,0 +1,27 @@
+"""The built-in materials and damage models pass the suites plugin authors use."""
+from peridyn.testing import DamageConformance, MaterialConformance
+
+
+class TestElastic(MaterialConformance):
+    material = "Elastic"
+    params = {"Density": 7800.0, "Bulk Modulus": 130.0e9, "Shear Modulus": 78.0e9}
+
+
+class TestElasticThermal(MaterialConformance):
+    material = "Elastic"
+    params = {"Density": 7800.0, "Young's Modulus": 200.0e9, "Poisson's Ratio": 0.3, "Thermal Expansion Coefficient": 1.0e-5}
+
+
+class TestElasticBondBased(MaterialConformance):
+    material = "Elastic Bond Based"
+    params = {"Density": 7800.0, "Bulk Modulus": 130.0e9}
+
+
+class TestElasticBondBasedPlaneStress(MaterialConformance):
+    material = "Elastic Bond Based"
+    params = {"Density": 7800.0, "Young's Modulus": 200.0e9, "Plane Stress": True, "Height": 1.0}
+
+
+class TestCriticalStretch(DamageConformance):
+    damage = "Critical Stretch"
+    params = {"Critical Stretch": 0.01}
