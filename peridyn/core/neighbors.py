@@ -1,0 +1,745 @@
+"""Neighbor lists: a numba cell-list radius search and the CSR bond structure every kernel uses.
+
+Bonds are stored in CSR form (DESIGN.md decision 6): the bonds of point ``i`` are
+``neighbors[offsets[i]:offsets[i+1]]``, and any per-bond array (bond damage, partial volumes) is
+aligned with ``neighbors``. Lists are *full*: a bond i->j is stored in i's row and, when j's family
+contains i, also as j->i in j's row. With horizons that differ between points the relation can be
+one-sided (j in i's family, i not in j's); :meth:`NeighborList.reverse` is then -1 for that bond
+and the incoming bonds of a point are found through :meth:`NeighborList.transpose`.
+
+The search reproduces Peridigm's Exodus/Text search (PERIDIGM_SEMANTICS.md section 2.5): point i
+searches with its *own* horizon delta_i and keeps every j != i with
+``(dx*dx + dy*dy) + dz*dz <= delta_i*delta_i`` (``d = x_j - x_i``), inclusive, with no
+tolerance; each list is in ascending point index. It is exact: the cell list only chooses the
+candidates, the kept set is decided by that one comparison.
+
+All kernels are ``@njit(cache=True)`` functions at module level. Parallel kernels loop over rows
+with ``prange`` and every iteration writes only its own row (gather, never scatter), so results
+do not depend on the number of threads.
+
+Memory: a :class:`NeighborList` costs 4 bytes per bond (int32 ``neighbors``) plus 8 bytes per
+point (int64 ``offsets``); :meth:`~NeighborList.reverse` adds 4 bytes per bond, and
+:meth:`~NeighborList.transpose` and :meth:`~NeighborList.sources` another 4 each, only when asked.
+The search needs about 100 bytes per point for its cell list (cell coordinates, a sorted copy of
+the positions, the cell order and cell starts) and one int64 count per query point, plus the
+result: no temporary proportional to the number of bonds.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numba import njit, prange
+
+__all__ = [
+    "NeighborList",
+    "radius_search",
+    "sort_rows",
+    "space_filling_order",
+    "renumber",
+    "omit_bonds_between_blocks",
+    "compact",
+    "hilbert_keys",
+]
+
+_INT32_MAX = np.iinfo(np.int32).max
+
+#: the cell edge is max horizon / this factor, so a point with the largest horizon scans
+#: ceil(2.99) = 3 cells each way (7^3 cells of about one point each on a lattice with horizon 3
+#: spacings: measured fastest among 1, 2, 3 and 4 cells per horizon); kept below an integer so
+#: the rounding of cell coordinates never needs one more cell.
+_CELL_FACTOR = 2.99
+
+
+# ------------------------------------------------------------------------------------------------
+# Small sorts (hand-written: numba's generic sort/argsort take seconds to compile)
+# ------------------------------------------------------------------------------------------------
+_GAPS = np.array([1, 4, 10, 23, 57, 132, 301, 701, 1750, 4376, 10941, 27353, 68383, 170958,
+                  427396, 1068491, 2671228, 6678071, 16695178, 41737946, 104344866, 260862166,
+                  652155416, 1630388541], dtype=np.int64)
+
+
+@njit(cache=True)
+def _shellsort(a, lo, hi):
+    """Sort a[lo:hi] ascending in place (Shell sort, Ciura gaps, then x2.5)."""
+    n = hi - lo
+    g = 0
+    while g + 1 < _GAPS.size and _GAPS[g + 1] < n:
+        g += 1
+    while g >= 0:
+        gap = _GAPS[g]
+        for i in range(lo + gap, hi):
+            v = a[i]
+            j = i
+            while j - gap >= lo and a[j - gap] > v:
+                a[j] = a[j - gap]
+                j -= gap
+            a[j] = v
+        g -= 1
+
+
+@njit(cache=True)
+def _shell_argsort(vals, perm):
+    """perm[:] = the permutation sorting vals ascending, ties by position (so: stable)."""
+    n = vals.size
+    for i in range(n):
+        perm[i] = i
+    g = 0
+    while g + 1 < _GAPS.size and _GAPS[g + 1] < n:
+        g += 1
+    while g >= 0:
+        gap = _GAPS[g]
+        for i in range(gap, n):
+            p = perm[i]
+            v = vals[p]
+            j = i
+            while j >= gap:
+                q = perm[j - gap]
+                w = vals[q]
+                if w > v or (w == v and q > p):
+                    perm[j] = q
+                    j -= gap
+                else:
+                    break
+            perm[j] = p
+        g -= 1
+
+
+# ------------------------------------------------------------------------------------------------
+# The CSR structure
+# ------------------------------------------------------------------------------------------------
+@dataclass(eq=False)
+class NeighborList:
+    """Bonds of ``num_points`` points in CSR form.
+
+    Attributes
+    ----------
+    offsets: int64, shape (n+1,); row i is ``neighbors[offsets[i]:offsets[i+1]]``.
+    neighbors: int32, shape (num_bonds,); local point index of the far end of each bond. A row
+        must not hold the same point twice (true of every list the search produces).
+
+    Derived arrays (:meth:`reverse`, :meth:`transpose`, :meth:`sources`) are computed on first
+    use and cached; the arrays must not be modified afterwards (make a new ``NeighborList``).
+    """
+
+    offsets: np.ndarray
+    neighbors: np.ndarray
+    _reverse: np.ndarray | None = field(default=None, init=False, repr=False)
+    _transpose: tuple[np.ndarray, np.ndarray] | None = field(default=None, init=False, repr=False)
+    _sources: np.ndarray | None = field(default=None, init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        self.offsets = np.ascontiguousarray(self.offsets, dtype=np.int64)
+        nb = np.asarray(self.neighbors)
+        if nb.dtype != np.int32:
+            if nb.size and (nb.max() > _INT32_MAX or nb.min() < 0):
+                raise ValueError("neighbor indices do not fit in int32")
+            nb = nb.astype(np.int32)
+        self.neighbors = np.ascontiguousarray(nb)
+        if self.offsets.ndim != 1 or self.offsets.size < 1:
+            raise ValueError("offsets must be a 1-D array of length num_points + 1")
+        if self.offsets[0] != 0 or self.offsets[-1] != self.neighbors.size:
+            raise ValueError(
+                f"offsets[0] must be 0 and offsets[-1] ({self.offsets[-1]}) must equal the number "
+                f"of bonds ({self.neighbors.size})"
+            )
+        if self.neighbors.size > _INT32_MAX:
+            raise ValueError("more than 2**31 - 1 bonds: bond positions do not fit in int32")
+
+    @property
+    def num_points(self) -> int:
+        """Number of rows (points with a neighbor list)."""
+        return int(self.offsets.size - 1)
+
+    @property
+    def num_bonds(self) -> int:
+        """Total number of bonds (entries of ``neighbors``)."""
+        return int(self.neighbors.size)
+
+    def counts(self) -> np.ndarray:
+        """Neighbors per point: int64, shape (num_points,)."""
+        return np.diff(self.offsets)
+
+    def reverse(self) -> np.ndarray:
+        """Position of the opposite bond: int32, shape (num_bonds,).
+
+        For bond b = i->j, ``reverse()[b]`` is the position of j->i in j's row, or -1 when j's row
+        does not contain i (one-sided family) or j has no row (j >= num_points). Exact for any row
+        order. Cost: O(B log d) with B bonds and d bonds per row; when some row is not in
+        ascending index order (e.g. after :func:`sort_rows` by global id), an int32 temporary of
+        B entries holds each row's sorting permutation while it runs.
+        """
+        if self._reverse is None:
+            out = np.empty(self.num_bonds, dtype=np.int32)
+            if self.num_bonds:
+                if _count_unsorted_rows(self.offsets, self.neighbors) == 0:
+                    _reverse_sorted(self.offsets, self.neighbors, out)
+                else:
+                    perm = _row_argsort(self.offsets, self.neighbors)
+                    _reverse_perm(self.offsets, self.neighbors, perm, out)
+                    del perm
+            self._reverse = out
+        return self._reverse
+
+    def num_targets(self) -> int:
+        """Number of points bonds can point to: max(num_points, max neighbor + 1)."""
+        if self.num_bonds == 0:
+            return self.num_points
+        return max(self.num_points, int(self.neighbors.max()) + 1)
+
+    def transpose(self) -> tuple[np.ndarray, np.ndarray]:
+        """Incoming bonds of every point: ``(in_offsets, in_bonds)``.
+
+        ``in_offsets`` int64, shape (m+1,) with m = :meth:`num_targets` (= num_points unless bonds
+        point past the last row); ``in_bonds[in_offsets[t]:in_offsets[t+1]]`` (int32) are the
+        positions b of the bonds whose target is t, in ascending source order. O(B), serial
+        counting sort. When :meth:`reverse` has been computed, every bond has a reverse and the
+        rows are ascending, the answer is ``(offsets, reverse())`` itself (no new memory).
+        """
+        if self._transpose is None:
+            if (
+                self._reverse is not None
+                and (self.num_bonds == 0 or int(self._reverse.min()) >= 0)
+                and _count_unsorted_rows(self.offsets, self.neighbors) == 0
+            ):
+                self._transpose = (self.offsets, self._reverse)
+                return self._transpose
+            m = self.num_targets()
+            in_offsets = np.zeros(m + 1, dtype=np.int64)
+            in_bonds = np.empty(self.num_bonds, dtype=np.int32)
+            if self.num_bonds:
+                _transpose_fill(self.offsets, self.neighbors, in_offsets, in_bonds)
+            self._transpose = (in_offsets, in_bonds)
+        return self._transpose
+
+    def sources(self) -> np.ndarray:
+        """Owner point of every bond: int32, shape (num_bonds,)."""
+        if self._sources is None:
+            self._sources = np.repeat(np.arange(self.num_points, dtype=np.int32), self.counts())
+        return self._sources
+
+    def nbytes(self) -> int:
+        """Bytes held: offsets, neighbors and whichever derived arrays have been computed."""
+        total = self.offsets.nbytes + self.neighbors.nbytes
+        if self._reverse is not None:
+            total += self._reverse.nbytes
+        if self._transpose is not None:
+            total += self._transpose[0].nbytes + self._transpose[1].nbytes
+        if self._sources is not None:
+            total += self._sources.nbytes
+        return int(total)
+
+
+@njit(cache=True)
+def _count_unsorted_rows(offsets, neighbors):
+    """Number of rows not in strictly ascending order. offsets (n+1,), neighbors (B,)."""
+    n = offsets.size - 1
+    bad = 0
+    for i in range(n):
+        for b in range(offsets[i] + 1, offsets[i + 1]):
+            if neighbors[b] <= neighbors[b - 1]:
+                bad += 1
+                break
+    return bad
+
+
+@njit(parallel=True, cache=True)
+def _reverse_sorted(offsets, neighbors, out):
+    """reverse() when every row is ascending: find i in row j. out int32 (B,).
+
+    First guess: for bond number k of row i (d_i bonds), i is bond d_j - 1 - k of row j, which
+    holds whenever the two neighborhoods mirror each other (the interior of a lattice); a
+    binary search of row j otherwise.
+    """
+    n = offsets.size - 1
+    for i in prange(n):
+        s = offsets[i]
+        di = offsets[i + 1] - s
+        for b in range(s, s + di):
+            j = neighbors[b]
+            r = -1
+            if j >= 0 and j < n:
+                lo = offsets[j]
+                end = offsets[j + 1]
+                g = end - 1 - (b - s)
+                if g >= lo and neighbors[g] == i:
+                    r = g
+                else:
+                    hi = end
+                    while lo < hi:
+                        mid = (lo + hi) >> 1
+                        if neighbors[mid] < i:
+                            lo = mid + 1
+                        else:
+                            hi = mid
+                    if lo < end and neighbors[lo] == i:
+                        r = lo
+            out[b] = r
+
+
+@njit(parallel=True, cache=True)
+def _row_argsort(offsets, neighbors):
+    """Per row, the permutation (int32, local to the row) that sorts the row ascending."""
+    n = offsets.size - 1
+    perm = np.empty(neighbors.size, dtype=np.int32)
+    for i in prange(n):
+        s = offsets[i]
+        e = offsets[i + 1]
+        if e > s:
+            _shell_argsort(neighbors[s:e], perm[s:e])
+    return perm
+
+
+@njit(parallel=True, cache=True)
+def _reverse_perm(offsets, neighbors, perm, out):
+    """reverse() for rows in any order: binary search through each row's sorting permutation."""
+    n = offsets.size - 1
+    for i in prange(n):
+        for b in range(offsets[i], offsets[i + 1]):
+            j = neighbors[b]
+            r = -1
+            if j >= 0 and j < n:
+                base = offsets[j]
+                lo = 0
+                hi = offsets[j + 1] - base
+                m = hi
+                while lo < hi:
+                    mid = (lo + hi) >> 1
+                    if neighbors[base + perm[base + mid]] < i:
+                        lo = mid + 1
+                    else:
+                        hi = mid
+                if lo < m:
+                    pos = base + perm[base + lo]
+                    if neighbors[pos] == i:
+                        r = pos
+            out[b] = r
+
+
+@njit(cache=True)
+def _transpose_fill(offsets, neighbors, in_offsets, in_bonds):
+    """Counting sort of bond positions by target, sources ascending (serial).
+
+    offsets (n+1,) int64; neighbors (B,); in_offsets (m+1,) int64 zeros on entry, filled here;
+    in_bonds (B,) int32 output.
+    """
+    for b in range(neighbors.size):
+        in_offsets[neighbors[b] + 1] += 1
+    m = in_offsets.size - 1
+    for t in range(m):
+        in_offsets[t + 1] += in_offsets[t]
+    pos = in_offsets[:-1].copy()
+    n = offsets.size - 1
+    for i in range(n):
+        for b in range(offsets[i], offsets[i + 1]):
+            t = neighbors[b]
+            in_bonds[pos[t]] = b
+            pos[t] += 1
+
+
+# ------------------------------------------------------------------------------------------------
+# Radius search
+# ------------------------------------------------------------------------------------------------
+@njit(parallel=True, cache=True)
+def _search_count(x, xs, order, cell_start, qpoints, qcell, qrange, h2, dims, counts):
+    """Count pass of the cell-list search.
+
+    x (n,3) float64 positions; xs (n,3) the same sorted by cell id; order (n,) int64 original
+    index of each sorted point; cell_start (ncells+1,) int64 first sorted point of each cell;
+    qpoints (k,) int64 query points; qcell (k,3) int64 their cell coordinates; qrange (k,) int64
+    cells to scan each way; h2 (k,) float64 squared horizons (a point j is kept when
+    ``(dx*dx + dy*dy) + dz*dz <= h2``); dims (3,) int64 grid size. Writes counts (k,) int64.
+    The cells of one (y, z) row are contiguous in ``xs``, so each row is one linear scan.
+    """
+    k = qpoints.size
+    nx = dims[0]
+    ny = dims[1]
+    nz = dims[2]
+    for q in prange(k):
+        i = qpoints[q]
+        xi0 = x[i, 0]
+        xi1 = x[i, 1]
+        xi2 = x[i, 2]
+        r2 = h2[q]
+        rr = qrange[q]
+        cx0 = max(qcell[q, 0] - rr, 0)
+        cx1 = min(qcell[q, 0] + rr, nx - 1)
+        cy0 = max(qcell[q, 1] - rr, 0)
+        cy1 = min(qcell[q, 1] + rr, ny - 1)
+        cz0 = max(qcell[q, 2] - rr, 0)
+        cz1 = min(qcell[q, 2] + rr, nz - 1)
+        c = 0
+        for cz in range(cz0, cz1 + 1):
+            for cy in range(cy0, cy1 + 1):
+                row = (cz * ny + cy) * nx
+                for p in range(cell_start[row + cx0], cell_start[row + cx1 + 1]):
+                    dx = xs[p, 0] - xi0
+                    dy = xs[p, 1] - xi1
+                    dz = xs[p, 2] - xi2
+                    d2 = (dx * dx + dy * dy) + dz * dz
+                    if d2 <= r2 and order[p] != i:
+                        c += 1
+        counts[q] = c
+
+
+@njit(parallel=True, cache=True)
+def _search_fill(x, xs, order, cell_start, qpoints, qcell, qrange, h2, dims, offsets, out):
+    """Fill pass: the same scan as :func:`_search_count`, writing row q of ``out`` at
+    ``offsets[q]`` (offsets (k+1,) int64 from the counts) and sorting it ascending."""
+    k = qpoints.size
+    nx = dims[0]
+    ny = dims[1]
+    nz = dims[2]
+    for q in prange(k):
+        i = qpoints[q]
+        xi0 = x[i, 0]
+        xi1 = x[i, 1]
+        xi2 = x[i, 2]
+        r2 = h2[q]
+        rr = qrange[q]
+        cx0 = max(qcell[q, 0] - rr, 0)
+        cx1 = min(qcell[q, 0] + rr, nx - 1)
+        cy0 = max(qcell[q, 1] - rr, 0)
+        cy1 = min(qcell[q, 1] + rr, ny - 1)
+        cz0 = max(qcell[q, 2] - rr, 0)
+        cz1 = min(qcell[q, 2] + rr, nz - 1)
+        base = offsets[q]
+        c = base
+        for cz in range(cz0, cz1 + 1):
+            for cy in range(cy0, cy1 + 1):
+                row = (cz * ny + cy) * nx
+                for p in range(cell_start[row + cx0], cell_start[row + cx1 + 1]):
+                    dx = xs[p, 0] - xi0
+                    dy = xs[p, 1] - xi1
+                    dz = xs[p, 2] - xi2
+                    d2 = (dx * dx + dy * dy) + dz * dz
+                    if d2 <= r2:
+                        j = order[p]
+                        if j != i:
+                            out[c] = j
+                            c += 1
+        if c - base > 1:
+            _shellsort(out, base, c)
+
+
+def radius_search(
+    x: np.ndarray,
+    horizon: np.ndarray | float,
+    points: np.ndarray | None = None,
+    *,
+    inclusive: bool = True,
+    dtype: type = np.int64,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Neighbors of ``points`` within each one's own horizon, among all points of ``x``.
+
+    Parameters
+    ----------
+    x: float64, shape (n, 3); reference positions (length units).
+    horizon: float64, shape (n,) (or a scalar); horizon of every point (length units), > 0.
+    points: int64, shape (k,); the points whose lists are wanted, in the order of the result
+        rows (default: all n points, in order).
+    inclusive: keep ``|x_j - x_i|^2 <= delta_i^2`` (Peridigm's Exodus/Text search) when true,
+        ``< delta_i^2`` when false.
+    dtype: integer dtype of the returned ``neighbors`` (np.int32 halves the memory).
+
+    Returns
+    -------
+    offsets: int64, shape (k+1,); neighbors: ``dtype``, shape (num_bonds,). Row q holds every
+    j != points[q] with ``(dx*dx + dy*dy) + dz*dz <= horizon[points[q]]**2`` (d = x_j - x_i), in
+    ascending index order. Families can be one-sided when horizons differ.
+    """
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    if x.ndim != 2 or x.shape[1] != 3:
+        raise ValueError(f"x must have shape (n, 3), got {x.shape}")
+    n = x.shape[0]
+    h = np.broadcast_to(np.asarray(horizon, dtype=np.float64), (n,))
+    if points is None:
+        qpoints = np.arange(n, dtype=np.int64)
+    else:
+        qpoints = np.ascontiguousarray(points, dtype=np.int64).reshape(-1)
+        if qpoints.size and (qpoints.min() < 0 or qpoints.max() >= n):
+            raise ValueError("points holds an index outside 0..n-1")
+    k = qpoints.size
+    offsets = np.zeros(k + 1, dtype=np.int64)
+    if k == 0 or n == 0:
+        return offsets, np.empty(0, dtype=dtype)
+    if not np.all(np.isfinite(x)):
+        raise ValueError("x holds non-finite coordinates")
+    hq = np.ascontiguousarray(h[qpoints])
+    if not np.all(np.isfinite(hq)) or hq.min() <= 0.0:
+        raise ValueError("every horizon must be finite and > 0")
+
+    # Cell grid: edge = max horizon / 2.99, enlarged until the grid has at most ~2n cells.
+    xmin = x.min(axis=0)
+    ext = x.max(axis=0) - xmin
+    hmax = float(hq.max())
+    cell = hmax / _CELL_FACTOR
+    max_cells = 2 * n + 64
+    while True:
+        dims_f = np.floor(ext / cell) + 1.0
+        if float(dims_f[0]) * float(dims_f[1]) * float(dims_f[2]) <= max_cells:
+            break
+        cell *= 1.25
+    dims = dims_f.astype(np.int64)
+    ncells = int(dims[0]) * int(dims[1]) * int(dims[2])
+    cc = np.floor((x - xmin) / cell).astype(np.int64)
+    np.clip(cc, 0, dims - 1, out=cc)
+    cell_id = (cc[:, 2] * dims[1] + cc[:, 1]) * dims[0] + cc[:, 0]
+    order = np.argsort(cell_id, kind="stable").astype(np.int64)
+    cell_start = np.zeros(ncells + 1, dtype=np.int64)
+    np.cumsum(np.bincount(cell_id, minlength=ncells), out=cell_start[1:])
+    xs = np.ascontiguousarray(x[order])
+    del cell_id
+
+    # Cells to scan each way: ceil(delta_i / cell + eps), eps bounding the rounding of the cell
+    # coordinates (in cell units), so no candidate within delta_i is ever missed.
+    eps = 32.0 * np.finfo(np.float64).eps * (float(np.abs(x).max()) / cell + float(dims.max())) + 1e-12
+    qrange = np.ceil(hq / cell + eps).astype(np.int64)
+    qcell = np.ascontiguousarray(cc[qpoints])
+    del cc
+    h2 = hq * hq
+    if not inclusive:  # d2 < h2  <=>  d2 <= the largest double below h2
+        h2 = np.nextafter(h2, 0.0)
+
+    args = (x, xs, order, cell_start, qpoints, qcell, qrange, h2, dims)
+    counts = np.empty(k, dtype=np.int64)
+    _search_count(*args, counts)
+    np.cumsum(counts, out=offsets[1:])
+    del counts
+    if np.dtype(dtype) == np.int32 and n - 1 > _INT32_MAX:
+        raise ValueError("too many points for int32 neighbor indices")
+    neighbors = np.empty(int(offsets[-1]), dtype=dtype)
+    if neighbors.size:
+        _search_fill(*args, offsets, neighbors)
+    return offsets, neighbors
+
+
+# ------------------------------------------------------------------------------------------------
+# Row operations
+# ------------------------------------------------------------------------------------------------
+@njit(parallel=True, cache=True)
+def _sort_rows_kernel(offsets, neighbors, key, out):
+    """Each row of ``neighbors`` reordered by key[neighbor] ascending (stable) into ``out``."""
+    n = offsets.size - 1
+    for i in prange(n):
+        s = offsets[i]
+        e = offsets[i + 1]
+        if e - s == 0:
+            continue
+        vals = np.empty(e - s, dtype=key.dtype)
+        for b in range(s, e):
+            vals[b - s] = key[neighbors[b]]
+        p = np.empty(e - s, dtype=np.int64)
+        _shell_argsort(vals, p)
+        for t in range(e - s):
+            out[s + t] = neighbors[s + p[t]]
+
+
+def sort_rows(offsets: np.ndarray, neighbors: np.ndarray, key: np.ndarray) -> np.ndarray:
+    """Reorder every row by ``key[neighbor]`` ascending, ties kept in their order (stable).
+
+    offsets int64 (n+1,); neighbors integer (B,); key (m,) any sortable numeric dtype, indexed by
+    neighbor (e.g. global ids). Returns a new neighbors array of the same dtype; offsets unchanged.
+    """
+    offsets = np.ascontiguousarray(offsets, dtype=np.int64)
+    neighbors = np.ascontiguousarray(neighbors)
+    out = np.empty_like(neighbors)
+    if neighbors.size:
+        _sort_rows_kernel(offsets, neighbors, np.ascontiguousarray(key), out)
+    return out
+
+
+@njit(parallel=True, cache=True)
+def _renumber_kernel(offsets, neighbors, new_of_old, order, new_offsets, out):
+    """New row r = old row order[r], entries mapped through new_of_old (gather per new row)."""
+    k = order.size
+    for r in prange(k):
+        o = order[r]
+        s = offsets[o]
+        base = new_offsets[r]
+        for b in range(s, offsets[o + 1]):
+            out[base + b - s] = new_of_old[neighbors[b]]
+
+
+def renumber(
+    offsets: np.ndarray, neighbors: np.ndarray, new_of_old: np.ndarray, order: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Permute rows and renumber entries.
+
+    offsets int64 (n+1,); neighbors integer (B,); new_of_old integer (m,) new index of every old
+    point an entry can name; order integer (k,) old row of every new row (``order[new] = old``,
+    usually the inverse of ``new_of_old``). Returns ``(new_offsets int64 (k+1,), new_neighbors)``
+    with ``new_neighbors`` of the dtype of ``neighbors``; each row keeps its entry order (run
+    :func:`sort_rows` to re-sort by the new indices).
+    """
+    offsets = np.ascontiguousarray(offsets, dtype=np.int64)
+    neighbors = np.ascontiguousarray(neighbors)
+    order = np.ascontiguousarray(order, dtype=np.int64)
+    new_of_old = np.ascontiguousarray(new_of_old).astype(neighbors.dtype, copy=False)
+    counts = np.diff(offsets)[order]
+    new_offsets = np.zeros(order.size + 1, dtype=np.int64)
+    np.cumsum(counts, out=new_offsets[1:])
+    out = np.empty(int(new_offsets[-1]), dtype=neighbors.dtype)
+    if out.size:
+        _renumber_kernel(offsets, neighbors, new_of_old, order, new_offsets, out)
+    return new_offsets, out
+
+
+@njit(parallel=True, cache=True)
+def _compact_kernel(offsets, neighbors, keep, new_offsets, out):
+    """Copy the kept bonds of every row, in order."""
+    n = offsets.size - 1
+    for i in prange(n):
+        c = new_offsets[i]
+        for b in range(offsets[i], offsets[i + 1]):
+            if keep[b]:
+                out[c] = neighbors[b]
+                c += 1
+
+
+@njit(parallel=True, cache=True)
+def _row_kept_counts(offsets, keep, counts):
+    n = offsets.size - 1
+    for i in prange(n):
+        c = 0
+        for b in range(offsets[i], offsets[i + 1]):
+            if keep[b]:
+                c += 1
+        counts[i] = c
+
+
+def compact(offsets: np.ndarray, neighbors: np.ndarray, keep: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Drop the bonds where ``keep`` is false, keeping the order within each row.
+
+    offsets int64 (n+1,); neighbors integer (B,); keep bool (B,). Returns new
+    ``(offsets int64 (n+1,), neighbors)`` with the dtype of ``neighbors``.
+    """
+    offsets = np.ascontiguousarray(offsets, dtype=np.int64)
+    neighbors = np.ascontiguousarray(neighbors)
+    keep = np.ascontiguousarray(keep, dtype=np.bool_)
+    n = offsets.size - 1
+    counts = np.empty(n, dtype=np.int64)
+    if n:
+        _row_kept_counts(offsets, keep, counts)
+    new_offsets = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(counts, out=new_offsets[1:])
+    out = np.empty(int(new_offsets[-1]), dtype=neighbors.dtype)
+    if out.size:
+        _compact_kernel(offsets, neighbors, keep, new_offsets, out)
+    return new_offsets, out
+
+
+@njit(parallel=True, cache=True)
+def _same_block_kernel(offsets, neighbors, rows, block_id, keep):
+    n = offsets.size - 1
+    for r in prange(n):
+        bi = block_id[rows[r]]
+        for b in range(offsets[r], offsets[r + 1]):
+            keep[b] = block_id[neighbors[b]] == bi
+
+
+def omit_bonds_between_blocks(
+    offsets: np.ndarray, neighbors: np.ndarray, block_id: np.ndarray, rows: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Peridigm's ``Omit Bonds Between Blocks: All`` (PERIDIGM_SEMANTICS.md section 2.7).
+
+    Removes every bond whose two ends have different block ids, keeping the order of the rest.
+    offsets int64 (k+1,); neighbors integer (B,); block_id integer (n,) per point; rows int64 (k,)
+    the point of each CSR row (default: row r is point r). Returns ``(offsets, neighbors)``.
+    """
+    offsets = np.ascontiguousarray(offsets, dtype=np.int64)
+    neighbors = np.ascontiguousarray(neighbors)
+    k = offsets.size - 1
+    rows = np.arange(k, dtype=np.int64) if rows is None else np.ascontiguousarray(rows, dtype=np.int64)
+    keep = np.empty(neighbors.size, dtype=np.bool_)
+    if neighbors.size:
+        _same_block_kernel(offsets, neighbors, rows, np.ascontiguousarray(block_id, dtype=np.int64), keep)
+    return compact(offsets, neighbors, keep)
+
+
+# ------------------------------------------------------------------------------------------------
+# Space-filling curve
+# ------------------------------------------------------------------------------------------------
+_HILBERT_BITS = 21  # 3 x 21 = 63 bits: the key fits in an int64
+
+
+@njit(cache=True)
+def _hilbert_keys(q, bits):
+    """3-D Hilbert index of integer coordinates q (n,3) int64 in [0, 2**bits) (Skilling 2004)."""
+    n = q.shape[0]
+    keys = np.empty(n, dtype=np.int64)
+    m = np.int64(1) << (bits - 1)
+    for p in range(n):
+        X0 = q[p, 0]
+        X1 = q[p, 1]
+        X2 = q[p, 2]
+        # inverse undo
+        Q = m
+        while Q > 1:
+            P = Q - 1
+            # i = 0
+            if X0 & Q:
+                X0 ^= P
+            # i = 1
+            if X1 & Q:
+                X0 ^= P
+            else:
+                t = (X0 ^ X1) & P
+                X0 ^= t
+                X1 ^= t
+            # i = 2
+            if X2 & Q:
+                X0 ^= P
+            else:
+                t = (X0 ^ X2) & P
+                X0 ^= t
+                X2 ^= t
+            Q >>= 1
+        # Gray encode
+        X1 ^= X0
+        X2 ^= X1
+        t = np.int64(0)
+        Q = m
+        while Q > 1:
+            if X2 & Q:
+                t ^= Q - 1
+            Q >>= 1
+        X0 ^= t
+        X1 ^= t
+        X2 ^= t
+        # interleave the transposed bits, most significant first
+        key = np.int64(0)
+        for b in range(bits - 1, -1, -1):
+            key = (key << 1) | ((X0 >> b) & 1)
+            key = (key << 1) | ((X1 >> b) & 1)
+            key = (key << 1) | ((X2 >> b) & 1)
+        keys[p] = key
+    return keys
+
+
+def hilbert_keys(x: np.ndarray, bits: int = _HILBERT_BITS) -> np.ndarray:
+    """Hilbert-curve index (int64, shape (n,)) of points x (n,3), quantized on a cube of 2**bits
+    cells per axis spanning the bounding box (same scale on every axis)."""
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    n = x.shape[0]
+    if n == 0:
+        return np.empty(0, dtype=np.int64)
+    lo = x.min(axis=0)
+    span = float((x.max(axis=0) - lo).max())
+    top = (1 << bits) - 1
+    if span > 0.0 and np.isfinite(span):
+        q = np.floor((x - lo) * (top / span)).astype(np.int64)
+        np.clip(q, 0, top, out=q)
+    else:
+        q = np.zeros((n, 3), dtype=np.int64)
+    return _hilbert_keys(q, bits)
+
+
+def space_filling_order(x: np.ndarray) -> np.ndarray:
+    """Permutation (int64, shape (n,)) listing the points of x (n,3) along a 3-D Hilbert curve.
+
+    ``x[order]`` puts points close in space close in memory; ties (points in the same curve cell,
+    duplicates) keep their index order, so the result is deterministic.
+    """
+    keys = hilbert_keys(x)
+    return np.argsort(keys, kind="stable").astype(np.int64)

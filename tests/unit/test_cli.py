@@ -1,0 +1,147 @@
+"""The command line: exit codes, one-line errors, no traceback, output kept safe."""
+import json
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+from peridyn.cli import main
+from peridyn.errors import ExitCode
+
+DECK = textwrap.dedent(
+    """
+    Discretization:
+      Type: "PdQuickGrid"
+      TensorProduct3DMeshGenerator:
+        Type: "PdQuickGrid"
+        X Origin: 0.0
+        Y Origin: 0.0
+        Z Origin: 0.0
+        X Length: 4.0
+        Y Length: 1.0
+        Z Length: 1.0
+        Number Points X: 4
+        Number Points Y: 1
+        Number Points Z: 1
+    Materials:
+      Steel:
+        Material Model: "Elastic"
+        Density: 7800.0
+        Bulk Modulus: 130.0e9
+        Shear Modulus: 78.0e9
+    Blocks:
+      All:
+        Block Names: "block_1"
+        Material: "Steel"
+        Horizon: 1.5
+    Boundary Conditions:
+      End Node Set: "4"
+      Kick:
+        Type: "Initial Velocity"
+        Node Set: "End Node Set"
+        Coordinate: "x"
+        Value: "1.0"
+    Solver:
+      Initial Time: 0.0
+      Final Time: 1.0e-2
+      Verlet:
+        Safety Factor: 0.5
+    Output:
+      Output Filename: "run"
+      Output Frequency: 10
+      Output Variables:
+        Displacement: true
+        Velocity: true
+        Dilatation: true
+        Element_Id: true
+    """
+)
+
+
+@pytest.fixture
+def deck(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    p = tmp_path / "deck.yaml"
+    p.write_text(DECK)
+    return p
+
+
+def test_run_writes_output_and_summary(deck, capsys):
+    assert main(["run", str(deck), "--no-progress"]) == ExitCode.OK
+    err = capsys.readouterr().err
+    assert "steps in" in err and "energy" in err and "wrote run.e" in err
+    from peridyn.io.exodus_reader import read_results
+
+    r = read_results(deck.parent / "run.e")
+    assert r["times"][0] == 0.0 and len(r["times"]) > 1
+    assert set(r["nodal"]) >= {"DisplacementX", "VelocityX"} and "Dilatation" in r["element"]
+    np.testing.assert_array_equal(r["element"]["Element_Id"][0], [1, 2, 3, 4])
+
+
+def test_bad_input_is_one_line_exit_2_and_leaves_output_alone(deck, capsys):
+    assert main(["run", str(deck), "--no-progress"]) == ExitCode.OK
+    before = (deck.parent / "run.e").read_bytes()
+    deck.write_text(DECK.replace("Bulk Modulus", "Bulk Modulos"))
+    capsys.readouterr()
+    assert main(["run", str(deck)]) == ExitCode.INPUT_ERROR
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "deck.yaml" in err[0] and "Materials > Steel" in err[0] and "did you mean 'Bulk Modulus'" in err[0]
+    assert "Traceback" not in "\n".join(err)
+    assert (deck.parent / "run.e").read_bytes() == before
+
+
+def test_missing_deck_file(tmp_path, capsys):
+    assert main(["run", str(tmp_path / "nope.yaml")]) == ExitCode.INPUT_ERROR
+    assert "nope.yaml" in capsys.readouterr().err
+
+
+def test_debug_shows_the_traceback(deck):
+    deck.write_text(DECK.replace("Bulk Modulus", "Bulk Modulos"))
+    proc = subprocess.run([sys.executable, "-m", "peridyn", "run", str(deck), "--debug"], capture_output=True, text=True)
+    assert proc.returncode != 0 and "Traceback" in proc.stderr
+    proc = subprocess.run([sys.executable, "-m", "peridyn", "run", str(deck)], capture_output=True, text=True)
+    assert proc.returncode == ExitCode.INPUT_ERROR and "Traceback" not in proc.stderr
+
+
+def test_check_describes_the_model(deck, capsys):
+    assert main(["check", str(deck)]) == ExitCode.OK
+    out = capsys.readouterr().out
+    assert "4 points" in out and "block block_1" in out and "horizon/spacing 1.5" in out
+    assert "stable time step" in out and "memory estimate" in out
+    assert not (deck.parent / "run.e").exists()  # check writes nothing
+
+
+def test_unknown_model_in_check_names_it_and_the_available_ones(deck, capsys):
+    deck.write_text(DECK.replace('"Elastic"', '"Elastic Plastic"'))
+    assert main(["check", str(deck)]) == ExitCode.INPUT_ERROR
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert "'Elastic Plastic'" in line and "available: Elastic, Elastic Bond Based" in line
+
+
+def test_plugins_lists_parameters(capsys):
+    assert main(["plugins"]) == ExitCode.OK
+    out = capsys.readouterr().out
+    assert "Elastic" in out and "Bulk Modulus" in out and "Critical Stretch" in out and "Verlet" in out
+
+
+def test_schema_is_json_with_plugin_parameters(capsys):
+    assert main(["schema"]) == ExitCode.OK
+    schema = json.loads(capsys.readouterr().out)
+    text = json.dumps(schema)
+    assert "Bulk Modulus" in text and "Critical Stretch" in text and "Fixed dt" in text
+
+
+def test_convert_round_trip(tmp_path, capsys):
+    xml = tmp_path / "d.xml"
+    xml.write_text('<ParameterList><ParameterList name="Materials"><ParameterList name="M">'
+                   '<Parameter name="Density" type="double" value="1.0"/></ParameterList></ParameterList></ParameterList>')
+    assert main(["convert", str(xml), str(tmp_path / "d.yaml")]) == ExitCode.OK
+    from peridyn.io.deckfile import load_deck_file
+
+    assert load_deck_file(tmp_path / "d.yaml").tree == {"Materials": {"M": {"Density": 1.0}}}
+
+
+def test_exit_codes_are_an_intenum():
+    assert int(ExitCode.INPUT_ERROR) == 2 and ExitCode.OK == 0
