@@ -179,6 +179,7 @@ class Simulation:
         self._fill_fields(disc)
         self._make_views()
         self._check_fusion()
+        self._warn_isolated()
         self._apply_initial_conditions()
         for blk in self.blocks:
             blk.material.initialize(blk.view)
@@ -411,6 +412,19 @@ class Simulation:
         else:
             self.bond_force = None
 
+    def _warn_isolated(self) -> None:
+        counts = self.bonds.counts()[: self.num_owned]
+        lonely = np.nonzero(counts == 0)[0]
+        total = self.comm.allreduce_sum(int(lonely.size))
+        if total:
+            ids = ", ".join(str(int(g) + 1) for g in self.gid[lonely[:5]])
+            log.warning(
+                "%d point(s) have no neighbors (e.g. point %s): they feel no internal force and move freely; "
+                "check the horizon against the point spacing",
+                total,
+                ids or "on another rank",
+            )
+
     # -- conditions ----------------------------------------------------------------------------
     def _create_conditions(self) -> None:
         deck = self.deck
@@ -472,6 +486,11 @@ class Simulation:
         self.kinematic = [c for c in self.conditions if c.stage == "kinematic"]
         self.force_conditions = [c for c in self.conditions if c.stage == "force"]
         self.prescribed_points = np.unique(np.concatenate([c.points for c in self.kinematic if c.target == "displacement"] or [np.zeros(0, np.int64)]))
+        #: (n, 3) bool, True on displacement components a kinematic condition prescribes
+        self.prescribed_dofs = np.zeros((self.num_local, 3), dtype=bool)
+        for c in self.kinematic:
+            if c.target == "displacement":
+                self.prescribed_dofs[c.points, c.component] = True
 
     def _reference_x(self) -> np.ndarray:
         return self.discretization.x[self.mothership_of_local]

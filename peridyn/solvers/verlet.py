@@ -90,7 +90,6 @@ class Verlet(Solver):
 
         monitor = EnergyMonitor(sim, dt, dt_crit)
         sim.energy = monitor
-        presc = sim.prescribed_points
         f_old = np.empty_like(f["Force_Density"])
         b_old = np.empty_like(f["External_Force_Density"]) if has_b else None
         du = np.empty_like(u)
@@ -103,11 +102,7 @@ class Verlet(Solver):
             sim.time_prev, sim.time = t_prev, t
             sim.begin_step(t)
             v += dt2 * a
-            if presc.size:
-                v_before = v[presc].copy()
             sim.apply_kinematic(t, t_prev)
-            if presc.size:
-                monitor.constraint_work(presc, v_before, v[presc])
             np.copyto(f_old, f["Force_Density"])
             if has_b:
                 np.copyto(b_old, f["External_Force_Density"])

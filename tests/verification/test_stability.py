@@ -1,0 +1,168 @@
+"""Stability: energy conservation, a run that goes unstable stops with a diagnosis, and stiff
+and extreme cases with clear outcomes."""
+import logging
+
+import numpy as np
+import pytest
+
+from peridyn.errors import InstabilityError
+from peridyn.solvers.verlet import Verlet, VerletSection
+from peridyn.testing import build_simulation, cube_deck
+
+ELASTIC = {"Material Model": "Elastic", "Density": 7800.0, "Bulk Modulus": 130.0e9, "Shear Modulus": 78.0e9}
+
+
+def verlet(sim, final_time=None, steps=None, **method):
+    if steps is not None:
+        dt = sim.critical_time_step() * method.get("Safety Factor", 1.0) if "Fixed dt" not in method else method["Fixed dt"] * method.get("Safety Factor", 1.0)
+        final_time = steps * dt * (1 + 1e-9)
+    section = VerletSection.model_validate({"Initial Time": 0.0, "Final Time": final_time, "Verlet": method})
+    Verlet(section).run(sim)
+    return sim.stats["solvers"][-1]
+
+
+def total_energy(sim) -> float:
+    sim.evaluate_forces()
+    return sim.kinetic_energy() + sim.stored_energy()
+
+
+def kick_face(sim, speed=5.0):
+    """An impact: the x = max face starts moving inward (a non-smooth initial condition)."""
+    x = sim.fields["Model_Coordinates"]
+    face = x[:, 0] > x[:, 0].max() - 0.5 * (x[1, 0] - x[0, 0] if len(x) > 1 else 1.0)
+    sim.fields["Velocity"][face, 0] = -speed
+    return face
+
+
+@pytest.mark.parametrize("material", [ELASTIC, {"Material Model": "Elastic Bond Based", "Density": 7800.0, "Bulk Modulus": 130.0e9}])
+def test_energy_drift_below_one_percent_over_1000_steps(material):
+    sim = build_simulation(cube_deck(material, n=6, spacing=1e-3))
+    x = sim.fields["Model_Coordinates"]
+    sim.fields["Velocity"][:] = 2.0 * np.sin(np.pi * x[:, [1, 2, 0]] / 6e-3)
+    e0 = total_energy(sim)
+    stats = verlet(sim, steps=1000, **{"Safety Factor": 0.7})
+    assert stats["steps"] == 1000
+    drift = abs(total_energy(sim) - e0) / e0
+    assert drift < 0.01, drift
+    # the cheap running balance of the monitor agrees with the exact energies
+    assert abs(stats["energy"]["balance_error"]) < 0.01 * e0
+
+
+def test_time_step_three_times_the_estimate_stops_within_50_steps(tmp_path):
+    extra = {"Output": {"Output Filename": "unstable", "Output Frequency": 5, "Output Variables": {"Displacement": True, "Velocity": True}}}
+    sim = build_simulation(cube_deck(ELASTIC, n=6, spacing=1e-3, extra=extra), output_dir=tmp_path)
+    kick_face(sim)
+    with pytest.raises(InstabilityError) as info:
+        verlet(sim, final_time=1.0, **{"Safety Factor": 3.0})
+    sim.outputs.close()
+    msg = str(info.value)
+    step = int(msg.split("at step ")[1].split()[0])
+    assert step <= 50, msg
+    assert "point" in msg and "grew" in msg or "non-finite" in msg
+    assert "Safety Factor" in msg and "3.00 times the stable estimate" in msg
+    from peridyn.io.exodus_reader import read_results
+
+    frames = read_results(tmp_path / "unstable.e")["times"]
+    assert len(frames) >= 1 and np.all(np.diff(frames) > 0)
+
+
+def test_non_finite_values_stop_the_run_at_once():
+    tree = cube_deck(ELASTIC, n=3)
+    tree["Boundary Conditions"] = {"All Node Set": " ".join(str(i) for i in range(1, 28)), "Push": {"Type": "Body Force", "Node Set": "All Node Set", "Coordinate": "x", "Value": "sqrt(x - 1000.0)"}}
+    sim = build_simulation(tree)
+    with pytest.raises(InstabilityError, match="at step 1 .*non-finite"):
+        verlet(sim, steps=10, **{"Safety Factor": 0.5})
+
+
+def test_safety_factor_above_one_warns_but_runs(caplog):
+    sim = build_simulation(cube_deck(ELASTIC, n=4, spacing=1e-3))
+    kick_face(sim, 1.0)
+    with caplog.at_level(logging.WARNING, logger="peridyn.solver"):
+        stats = verlet(sim, steps=200, **{"Safety Factor": 1.4})
+    assert any("Safety Factor" in r.getMessage() for r in caplog.records)
+    assert stats["steps"] == 200 and stats["energy"]["max_relative_error"] < 0.05
+
+
+# -- stiff and extreme cases -------------------------------------------------------------------
+def run_impact(tree, steps=300, sf=0.7):
+    """An impact at safety factor 0.7 for ``steps`` steps. The non-smooth start excites the
+    highest modes, for which velocity Verlet's energy oscillates by O((omega dt)^2), a few
+    percent here (the monitor's trapezoidal work estimate adds an error of the same order); an
+    unstable run grows without bound, so 10 % (15 % for the monitor) separates the two."""
+    sim = build_simulation(tree)
+    kick_face(sim, 1.0)
+    e0 = total_energy(sim)
+    stats = verlet(sim, steps=steps, **{"Safety Factor": sf})
+    assert stats["steps"] == steps
+    assert abs(total_energy(sim) - e0) / e0 < 0.10
+    assert stats["energy"]["max_relative_error"] < 0.15
+    return sim, stats, e0
+
+
+def test_nearly_incompressible_material_is_stable():
+    """K/G = 1000: the time step estimate uses K, so the run stays stable."""
+    material = {"Material Model": "Elastic", "Density": 1000.0, "Bulk Modulus": 1.0e12, "Shear Modulus": 1.0e9}
+    run_impact(cube_deck(material, n=6, spacing=1e-3))
+
+
+@pytest.mark.parametrize("ratio,neighbors", [(1.01, 6), (6.0, None)])
+def test_extreme_horizon_to_spacing_ratios_are_stable(ratio, neighbors):
+    tree = cube_deck(ELASTIC, n=6 if ratio < 2 else 8, spacing=1e-3, horizon_factor=ratio)
+    sim, stats, e0 = run_impact(tree)
+    if neighbors is not None:
+        assert sim.bonds.counts().max() == neighbors
+    else:
+        assert sim.bonds.counts().max() > 400
+
+
+def test_fifty_percent_compression_completes_without_instability():
+    """One face pushed in by half the cube's length; the opposite face held."""
+    n, h = 6, 1e-3
+    tree = cube_deck(ELASTIC, n=n, spacing=h)
+    ids = np.arange(n**3).reshape(n, n, n)  # [z, y, x] with x fastest
+    left = " ".join(str(i + 1) for i in ids[:, :, 0].ravel())
+    right = " ".join(str(i + 1) for i in ids[:, :, -1].ravel())
+    t_end = 2e-4
+    tree["Boundary Conditions"] = {
+        "Left Node Set": left,
+        "Right Node Set": right,
+        "Hold": {"Type": "Prescribed Displacement", "Node Set": "Left Node Set", "Coordinate": "x", "Value": "0.0"},
+        "Push": {"Type": "Prescribed Displacement", "Node Set": "Right Node Set", "Coordinate": "x", "Value": f"-{0.5 * (n - 1) * h}*t/{t_end}"},
+    }
+    sim = build_simulation(tree)
+    stats = verlet(sim, final_time=t_end, **{"Safety Factor": 0.7})
+    x = sim.fields["Model_Coordinates"][:, 0]
+    u = sim.fields["Displacement"][:, 0]
+    right_face = x > x.max() - 0.5 * h
+    np.testing.assert_allclose(u[right_face], -0.5 * (n - 1) * h, rtol=1e-3)
+    assert np.all(np.isfinite(sim.fields["Velocity"]))
+    assert stats["energy"]["max_relative_error"] < 0.05
+
+
+def test_point_without_neighbors_moves_freely(tmp_path, caplog):
+    mesh = tmp_path / "mesh.txt"
+    rows = [f"{i * 1e-3} 0 0 1 1e-9" for i in range(4)] + ["1.0 1.0 1.0 1 1e-9"]
+    mesh.write_text("\n".join(rows) + "\n")
+    tree = {
+        "Discretization": {"Type": "Text File", "Input Mesh File": "mesh.txt"},
+        "Materials": {"M": ELASTIC},
+        "Blocks": {"B": {"Block Names": "block_1", "Material": "M", "Horizon": 1.5e-3}},
+        "Boundary Conditions": {"Lonely Node Set": "5", "Go": {"Type": "Initial Velocity", "Node Set": "Lonely Node Set", "Coordinate": "y", "Value": "2.0"}},
+    }
+    with caplog.at_level(logging.WARNING, logger="peridyn.engine"):
+        sim = build_simulation(tree, directory=tmp_path)
+    assert any("no neighbors" in r.getMessage() for r in caplog.records)
+    stats = verlet(sim, steps=100, **{"Safety Factor": 0.7})
+    lonely = np.nonzero(sim.gid == 4)[0][0]
+    np.testing.assert_allclose(sim.fields["Displacement"][lonely], [0.0, 2.0 * sim.time, 0.0], rtol=1e-12)
+    assert np.all(sim.fields["Force_Density"][lonely] == 0.0)
+
+
+def test_micrometre_horizon_in_si_units():
+    """delta = 1e-6 m: neighbor search, time step (~1e-11 s) and forces all work at this scale."""
+    tree = cube_deck(ELASTIC, n=5, spacing=1e-6 / 3.015)
+    sim = build_simulation(tree)
+    assert sim.bonds.counts().max() > 100
+    dt = sim.critical_time_step()
+    assert 1e-12 < dt < 1e-10
+    run_impact(tree, steps=200)
