@@ -13,9 +13,10 @@ searches with its *own* horizon delta_i and keeps every j != i with
 tolerance; each list is in ascending point index. It is exact: the cell list only chooses the
 candidates, the kept set is decided by that one comparison.
 
-All kernels are ``@njit(cache=True)`` functions at module level. Parallel kernels loop over rows
-with ``prange`` and every iteration writes only its own row (gather, never scatter), so results
-do not depend on the number of threads.
+All kernels are ``@njit(cache=True)`` functions at module level. The search, the reverse index
+and the packed row sort loop over rows with ``prange`` and every iteration writes only its own
+row (gather, never scatter), so results do not depend on the number of threads; memory-bound
+copies (compact, renumber) are serial (a parallel kernel costs about a second more to compile).
 
 Memory: a :class:`NeighborList` costs 4 bytes per bond (int32 ``neighbors``) plus 8 bytes per
 point (int64 ``offsets``); :meth:`~NeighborList.reverse` adds 4 bytes per bond, and
@@ -117,6 +118,10 @@ class NeighborList:
     offsets: int64, shape (n+1,); row i is ``neighbors[offsets[i]:offsets[i+1]]``.
     neighbors: int32, shape (num_bonds,); local point index of the far end of each bond. A row
         must not hold the same point twice (true of every list the search produces).
+    row_key: optional, shape (>= num_targets,), integer or float; when every row is in ascending
+        ``row_key[neighbor]`` order (e.g. rows sorted by global id with :func:`sort_rows`), give
+        it and :meth:`reverse` searches by key (fast) instead of sorting each row first. Ignored
+        (the general method runs) if some row is not in that order.
 
     Derived arrays (:meth:`reverse`, :meth:`transpose`, :meth:`sources`) are computed on first
     use and cached; the arrays must not be modified afterwards (make a new ``NeighborList``).
@@ -124,6 +129,7 @@ class NeighborList:
 
     offsets: np.ndarray
     neighbors: np.ndarray
+    row_key: np.ndarray | None = None
     _reverse: np.ndarray | None = field(default=None, init=False, repr=False)
     _transpose: tuple[np.ndarray, np.ndarray] | None = field(default=None, init=False, repr=False)
     _sources: np.ndarray | None = field(default=None, init=False, repr=False)
@@ -136,6 +142,10 @@ class NeighborList:
                 raise ValueError("neighbor indices do not fit in int32")
             nb = nb.astype(np.int32)
         self.neighbors = np.ascontiguousarray(nb)
+        if self.row_key is not None:
+            self.row_key = np.ascontiguousarray(self.row_key)
+            if self.neighbors.size and self.row_key.size <= int(self.neighbors.max()):
+                raise ValueError("row_key must have an entry for every point a bond names")
         if self.offsets.ndim != 1 or self.offsets.size < 1:
             raise ValueError("offsets must be a 1-D array of length num_points + 1")
         if self.offsets[0] != 0 or self.offsets[-1] != self.neighbors.size:
@@ -165,15 +175,20 @@ class NeighborList:
 
         For bond b = i->j, ``reverse()[b]`` is the position of j->i in j's row, or -1 when j's row
         does not contain i (one-sided family) or j has no row (j >= num_points). Exact for any row
-        order. Cost: O(B log d) with B bonds and d bonds per row; when some row is not in
-        ascending index order (e.g. after :func:`sort_rows` by global id), an int32 temporary of
-        B entries holds each row's sorting permutation while it runs.
+        order. Cost: O(B log d) with B bonds and d bonds per row, by binary search of i in row j
+        when rows are in ascending index order or in ascending ``row_key`` order; otherwise each
+        row's sorting permutation is computed first (O(B d^0.3) more, and an int32 temporary of
+        B entries while it runs).
         """
         if self._reverse is None:
             out = np.empty(self.num_bonds, dtype=np.int32)
             if self.num_bonds:
                 if _count_unsorted_rows(self.offsets, self.neighbors) == 0:
                     _reverse_sorted(self.offsets, self.neighbors, out)
+                elif self.row_key is not None and _count_unsorted_rows_by_key(
+                    self.offsets, self.neighbors, self.row_key
+                ) == 0:
+                    _reverse_keyed(self.offsets, self.neighbors, self.row_key, out)
                 else:
                     perm = _row_argsort(self.offsets, self.neighbors)
                     _reverse_perm(self.offsets, self.neighbors, perm, out)
@@ -277,42 +292,106 @@ def _reverse_sorted(offsets, neighbors, out):
             out[b] = r
 
 
+@njit(cache=True)
+def _count_unsorted_rows_by_key(offsets, neighbors, key):
+    """Number of rows not in ascending key[neighbor] order (ties allowed)."""
+    n = offsets.size - 1
+    bad = 0
+    for i in range(n):
+        for b in range(offsets[i] + 1, offsets[i + 1]):
+            if key[neighbors[b]] < key[neighbors[b - 1]]:
+                bad += 1
+                break
+    return bad
+
+
+@njit(parallel=True, cache=True)
+def _reverse_keyed(offsets, neighbors, key, out):
+    """reverse() when every row is ascending in key[neighbor]: the mirror guess of
+    :func:`_reverse_sorted`, else a lower-bound search for key[i] in row j and a scan of the
+    entries with that key."""
+    n = offsets.size - 1
+    for i in prange(n):
+        s = offsets[i]
+        ki = key[i]
+        for b in range(s, offsets[i + 1]):
+            j = neighbors[b]
+            r = -1
+            if j >= 0 and j < n:
+                lo = offsets[j]
+                end = offsets[j + 1]
+                g = end - 1 - (b - s)
+                if g >= lo and neighbors[g] == i:
+                    r = g
+                else:
+                    hi = end
+                    while lo < hi:
+                        mid = (lo + hi) >> 1
+                        if key[neighbors[mid]] < ki:
+                            lo = mid + 1
+                        else:
+                            hi = mid
+                    while lo < end and key[neighbors[lo]] == ki:
+                        if neighbors[lo] == i:
+                            r = lo
+                            break
+                        lo += 1
+            out[b] = r
+
+
 @njit(parallel=True, cache=True)
 def _row_argsort(offsets, neighbors):
-    """Per row, the permutation (int32, local to the row) that sorts the row ascending."""
+    """Per row, the permutation (int32, local to the row) that sorts the row ascending.
+
+    Sorts packed int64 values (neighbor << 32 | position), so there is no indirection in the
+    comparisons; neighbors must be >= 0 (they are point indices).
+    """
     n = offsets.size - 1
     perm = np.empty(neighbors.size, dtype=np.int32)
     for i in prange(n):
         s = offsets[i]
         e = offsets[i + 1]
         if e > s:
-            _shell_argsort(neighbors[s:e], perm[s:e])
+            buf = np.empty(e - s, dtype=np.int64)
+            for k in range(e - s):
+                buf[k] = (np.int64(neighbors[s + k]) << 32) | k
+            _shellsort(buf, 0, e - s)
+            for k in range(e - s):
+                perm[s + k] = np.int32(buf[k] & 0xFFFFFFFF)
     return perm
 
 
 @njit(parallel=True, cache=True)
 def _reverse_perm(offsets, neighbors, perm, out):
-    """reverse() for rows in any order: binary search through each row's sorting permutation."""
+    """reverse() for rows in any order: the mirror guess of :func:`_reverse_sorted` (it holds
+    for rows sorted by any key that orders space consistently, such as lattice global ids), else
+    a binary search through each row's sorting permutation ``perm`` (int32, local to rows)."""
     n = offsets.size - 1
     for i in prange(n):
-        for b in range(offsets[i], offsets[i + 1]):
+        s = offsets[i]
+        for b in range(s, offsets[i + 1]):
             j = neighbors[b]
             r = -1
             if j >= 0 and j < n:
                 base = offsets[j]
-                lo = 0
-                hi = offsets[j + 1] - base
-                m = hi
-                while lo < hi:
-                    mid = (lo + hi) >> 1
-                    if neighbors[base + perm[base + mid]] < i:
-                        lo = mid + 1
-                    else:
-                        hi = mid
-                if lo < m:
-                    pos = base + perm[base + lo]
-                    if neighbors[pos] == i:
-                        r = pos
+                end = offsets[j + 1]
+                g = end - 1 - (b - s)
+                if g >= base and neighbors[g] == i:
+                    r = g
+                else:
+                    lo = 0
+                    hi = end - base
+                    m = hi
+                    while lo < hi:
+                        mid = (lo + hi) >> 1
+                        if neighbors[base + perm[base + mid]] < i:
+                            lo = mid + 1
+                        else:
+                            hi = mid
+                    if lo < m:
+                        pos = base + perm[base + lo]
+                        if neighbors[pos] == i:
+                            r = pos
             out[b] = r
 
 
@@ -517,11 +596,11 @@ def radius_search(
 # ------------------------------------------------------------------------------------------------
 # Row operations
 # ------------------------------------------------------------------------------------------------
-@njit(parallel=True, cache=True)
+@njit(cache=True)
 def _sort_rows_kernel(offsets, neighbors, key, out):
     """Each row of ``neighbors`` reordered by key[neighbor] ascending (stable) into ``out``."""
     n = offsets.size - 1
-    for i in prange(n):
+    for i in range(n):
         s = offsets[i]
         e = offsets[i + 1]
         if e - s == 0:
@@ -535,6 +614,24 @@ def _sort_rows_kernel(offsets, neighbors, key, out):
             out[s + t] = neighbors[s + p[t]]
 
 
+@njit(parallel=True, cache=True)
+def _sort_rows_packed(offsets, neighbors, key, out):
+    """:func:`_sort_rows_kernel` for integer keys in [0, 2**31): sorts packed int64 values
+    (key << 32 | position), which is stable and has no indirection in the comparisons."""
+    n = offsets.size - 1
+    for i in prange(n):
+        s = offsets[i]
+        e = offsets[i + 1]
+        if e - s == 0:
+            continue
+        buf = np.empty(e - s, dtype=np.int64)
+        for k in range(e - s):
+            buf[k] = (np.int64(key[neighbors[s + k]]) << 32) | k
+        _shellsort(buf, 0, e - s)
+        for k in range(e - s):
+            out[s + k] = neighbors[s + (buf[k] & 0xFFFFFFFF)]
+
+
 def sort_rows(offsets: np.ndarray, neighbors: np.ndarray, key: np.ndarray) -> np.ndarray:
     """Reorder every row by ``key[neighbor]`` ascending, ties kept in their order (stable).
 
@@ -545,15 +642,26 @@ def sort_rows(offsets: np.ndarray, neighbors: np.ndarray, key: np.ndarray) -> np
     neighbors = np.ascontiguousarray(neighbors)
     out = np.empty_like(neighbors)
     if neighbors.size:
-        _sort_rows_kernel(offsets, neighbors, np.ascontiguousarray(key), out)
+        key = np.ascontiguousarray(key)
+        row_max = int(np.diff(offsets).max())
+        if (
+            np.issubdtype(key.dtype, np.integer)
+            and key.size
+            and int(key.min()) >= 0
+            and int(key.max()) <= _INT32_MAX
+            and row_max <= _INT32_MAX
+        ):
+            _sort_rows_packed(offsets, neighbors, key.astype(np.int64, copy=False), out)
+        else:
+            _sort_rows_kernel(offsets, neighbors, key, out)
     return out
 
 
-@njit(parallel=True, cache=True)
+@njit(cache=True)
 def _renumber_kernel(offsets, neighbors, new_of_old, order, new_offsets, out):
     """New row r = old row order[r], entries mapped through new_of_old (gather per new row)."""
     k = order.size
-    for r in prange(k):
+    for r in range(k):
         o = order[r]
         s = offsets[o]
         base = new_offsets[r]
@@ -585,11 +693,11 @@ def renumber(
     return new_offsets, out
 
 
-@njit(parallel=True, cache=True)
+@njit(cache=True)
 def _compact_kernel(offsets, neighbors, keep, new_offsets, out):
     """Copy the kept bonds of every row, in order."""
     n = offsets.size - 1
-    for i in prange(n):
+    for i in range(n):
         c = new_offsets[i]
         for b in range(offsets[i], offsets[i + 1]):
             if keep[b]:
@@ -597,10 +705,10 @@ def _compact_kernel(offsets, neighbors, keep, new_offsets, out):
                 c += 1
 
 
-@njit(parallel=True, cache=True)
+@njit(cache=True)
 def _row_kept_counts(offsets, keep, counts):
     n = offsets.size - 1
-    for i in prange(n):
+    for i in range(n):
         c = 0
         for b in range(offsets[i], offsets[i + 1]):
             if keep[b]:
@@ -629,10 +737,10 @@ def compact(offsets: np.ndarray, neighbors: np.ndarray, keep: np.ndarray) -> tup
     return new_offsets, out
 
 
-@njit(parallel=True, cache=True)
+@njit(cache=True)
 def _same_block_kernel(offsets, neighbors, rows, block_id, keep):
     n = offsets.size - 1
-    for r in prange(n):
+    for r in range(n):
         bi = block_id[rows[r]]
         for b in range(offsets[r], offsets[r + 1]):
             keep[b] = block_id[neighbors[b]] == bi

@@ -191,6 +191,18 @@ def test_reverse_asymmetric_and_after_resorting():
     key = np.random.default_rng(1).permutation(nl.num_points)
     nl2 = NeighborList(nl.offsets, sort_rows(nl.offsets, nl.neighbors, key))
     assert check_reverse(nl2) > 0
+    # ... and with the key given: the keyed search must agree
+    nl3 = NeighborList(nl.offsets, nl2.neighbors, row_key=key)
+    np.testing.assert_array_equal(nl3.reverse(), nl2.reverse())
+    # a key with ties (rows ascending in key, ties in any order)
+    ties = key // 3
+    nl4 = NeighborList(nl.offsets, sort_rows(nl.offsets, nl.neighbors, ties), row_key=ties)
+    assert check_reverse(nl4) > 0
+    # a wrong key is detected and the general method used
+    nl5 = NeighborList(nl.offsets, nl2.neighbors, row_key=-key)
+    np.testing.assert_array_equal(nl5.reverse(), nl2.reverse())
+    with pytest.raises(ValueError):
+        NeighborList(nl.offsets, nl.neighbors, row_key=key[:3])
 
 
 def test_reverse_symmetric_lattice():
@@ -253,6 +265,14 @@ def test_sort_rows_stable():
     out = sort_rows(off, nb, key)
     assert out.dtype == np.int32
     assert out.tolist() == [3, 1, 0, 2, 3, 1, 2]
+    # general keys (float, negative) take the other kernel: same answers
+    assert sort_rows(off, nb, key.astype(float)).tolist() == out.tolist()
+    rng = np.random.default_rng(8)
+    off2, nb2 = radius_search(rng.random((300, 3)), 0.2, dtype=np.int32)
+    k2 = rng.integers(0, 50, 300)  # many ties
+    ref = [sorted(r, key=lambda j: k2[j]) for r in rows_of(off2, nb2)]  # Python's sort is stable
+    assert rows_of(off2, sort_rows(off2, nb2, k2)) == ref
+    assert rows_of(off2, sort_rows(off2, nb2, k2.astype(np.float64))) == ref
 
 
 def test_renumber_round_trip_and_consistency():
