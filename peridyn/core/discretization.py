@@ -14,8 +14,9 @@ import numpy as np
 #: builds candidate neighbor lists for a grid generator. Called as ``rule(points, horizon)`` with
 #: ``points`` the mothership indices (int64, shape (k,)) whose lists are wanted and ``horizon``
 #: the horizon of every point (float64, shape (n,), metres). Returns ``(offsets, neighbors)``:
-#: CSR in the order of ``points``, ``offsets`` int64 of shape (k+1,), ``neighbors`` int64
-#: mothership indices, each list in ascending global-id order, the point itself excluded.
+#: CSR in the order of ``points``, ``offsets`` int64 of shape (k+1,), ``neighbors`` integer
+#: (int32 where the indices fit) mothership indices, each list in ascending global-id order,
+#: the point itself excluded.
 NeighborRule = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
 
 

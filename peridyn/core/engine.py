@@ -105,6 +105,18 @@ def bond_length_kernel(n, offsets, neighbors, x, zeta):
             zeta[b] = math.sqrt(dx * dx + dy * dy + dz * dz)
 
 
+@njit(cache=True)
+def crossing_blocks_kernel(n, offsets, neighbors, block_index, open_mask):
+    """open_mask[k] = True for every block with a bond leaving or entering it."""
+    for i in range(n):
+        bi = block_index[i]
+        for b in range(offsets[i], offsets[i + 1]):
+            bj = block_index[neighbors[b]]
+            if bj != bi:
+                open_mask[bi] = True
+                open_mask[bj] = True
+
+
 @njit(cache=True, parallel=True, error_model="numpy")
 def critical_time_step_kernel(start, stop, offsets, neighbors, x, volume, density, c_const, c_point, dt):
     """dt_i = sqrt(2 rho / sum_j V_j c / |xi|) (Silling-Askari), inf for isolated points.
@@ -265,8 +277,9 @@ class Simulation:
         points = np.arange(disc.num_points, dtype=np.int64)
         if disc.neighbor_rule is not None:
             offsets, neighbors = disc.neighbor_rule(points, horizon)
+            neighbors = neighbors.astype(np.int32, copy=False)  # 4 bytes per bond from here on
         else:
-            offsets, neighbors = radius_search(disc.x, horizon, points)
+            offsets, neighbors = radius_search(disc.x, horizon, points, dtype=np.int32)
         dentry = self.deck.discretization
         if dentry.bond_filters:
             from .bond_filters import apply_bond_filters, make_filter
@@ -291,7 +304,7 @@ class Simulation:
         offsets, neighbors = renumber(offsets, neighbors, new_of_old, order)
         gid_local = disc.gid[order]
         neighbors = sort_rows(offsets, neighbors, gid_local)
-        self.bonds = NeighborList(np.ascontiguousarray(offsets, dtype=np.int64), np.ascontiguousarray(neighbors, dtype=np.int32))
+        self.bonds = NeighborList(np.ascontiguousarray(offsets, dtype=np.int64), np.ascontiguousarray(neighbors, dtype=np.int32), row_key=gid_local)
         self.mothership_of_local = order
         self.local_of_mothership = new_of_old
         self.gid = gid_local
@@ -379,6 +392,7 @@ class Simulation:
                 fields=self.fields,
                 bonds=self.bonds,
                 num_owned=self.num_owned,
+                damage_symmetric=bool(blk.damage is not None and blk.damage.symmetric),
                 influence=self.influence,
             )
 
@@ -387,13 +401,10 @@ class Simulation:
         its boundary in either direction, its horizon is constant and its families are
         symmetric."""
         nl = self.bonds
-        if nl.num_bonds:
-            src_block = np.repeat(self.block_index, nl.counts())
-            dst_block = self.block_index[nl.neighbors]
-            crossing = src_block != dst_block
-            open_blocks = set(np.unique(src_block[crossing]).tolist()) | set(np.unique(dst_block[crossing]).tolist())
-        else:
-            open_blocks = set()
+        open_mask = np.zeros(len(self.blocks), dtype=np.bool_)
+        if len(self.blocks) > 1 and nl.num_bonds:
+            crossing_blocks_kernel(self.num_owned, nl.offsets, nl.neighbors, self.block_index, open_mask)
+        open_blocks = set(np.nonzero(open_mask)[0].tolist())
         maybe_one_sided = bool(self.deck.discretization.bond_filters)
         reverse = None
         for blk in self.blocks:
@@ -431,7 +442,8 @@ class Simulation:
         from ..io.nodesets import parse_node_set_value
 
         disc = self.discretization
-        mothership_of_gid = {int(g): k for k, g in enumerate(disc.gid)}
+        gid_order = np.argsort(disc.gid, kind="stable")
+        sorted_gid = disc.gid[gid_order]
         self.node_sets: dict[str, np.ndarray] = {}  # tidied name -> mothership indices (duplicates kept)
         errors: list[InputError] = []
         for name, entry in deck.node_sets.items():
@@ -440,7 +452,10 @@ class Simulation:
             except InputError as exc:
                 errors.append(exc)
                 continue
-            missing = [int(i) for i in ids if int(i) - 1 not in mothership_of_gid]
+            wanted = np.asarray(ids, dtype=np.int64) - 1
+            where = np.clip(np.searchsorted(sorted_gid, wanted), 0, max(len(sorted_gid) - 1, 0))
+            found = (sorted_gid[where] == wanted) if len(sorted_gid) else np.zeros(len(wanted), bool)
+            missing = [int(i) for i in np.asarray(ids)[~found]]
             if missing:
                 errors.append(
                     InputError(
@@ -451,7 +466,7 @@ class Simulation:
                     )
                 )
                 continue
-            self.node_sets[name] = np.array([mothership_of_gid[int(i) - 1] for i in ids], dtype=np.int64)
+            self.node_sets[name] = gid_order[where].astype(np.int64)
         for raw_name, members in disc.node_sets.items():
             name = tidy(raw_name)
             if name in self.node_sets:

@@ -44,6 +44,8 @@ class FieldSpec:
     temporal: CONSTANT (one array) or TWO_STEP (N and NP1 arrays, swapped after each step).
     halo: under MPI, ghost copies are refreshed when the engine exchanges halos.
     units: for documentation.
+    dtype: numpy dtype name; e.g. ``"uint8"`` for bond damage that is only ever 0 or 1 (one byte
+        per bond instead of eight). Two declarations with different dtypes get float64.
     """
 
     name: str
@@ -52,6 +54,7 @@ class FieldSpec:
     temporal: Temporal = Temporal.CONSTANT
     halo: bool = False
     units: str = ""
+    dtype: str = "float64"
 
     @property
     def is_point(self) -> bool:
@@ -87,8 +90,13 @@ class FieldStore:
             if not old.compatible(spec):
                 raise ValueError(f"field {spec.name} declared twice with different shapes: {old} vs {spec}")
             temporal = Temporal.TWO_STEP if Temporal.TWO_STEP in (old.temporal, spec.temporal) else Temporal.CONSTANT
-            merged = FieldSpec(old.name, old.relation, old.length, temporal, old.halo or spec.halo, old.units or spec.units)
+            dtype = old.dtype if old.dtype == spec.dtype else "float64"
+            merged = FieldSpec(old.name, old.relation, old.length, temporal, old.halo or spec.halo, old.units or spec.units, dtype)
             self.specs[spec.name] = merged
+            if spec.name in self._np1 and dtype != old.dtype:
+                self._np1[spec.name] = self._np1[spec.name].astype(dtype)
+                if spec.name in self._n:
+                    self._n[spec.name] = self._n[spec.name].astype(dtype)
             if spec.name in self._np1 and temporal is Temporal.TWO_STEP and spec.name not in self._n:
                 self._n[spec.name] = self._np1[spec.name].copy()
         if spec.name not in self._np1:
@@ -107,9 +115,9 @@ class FieldStore:
 
     def _allocate(self, spec: FieldSpec) -> None:
         shape = self._shape(spec)
-        self._np1[spec.name] = np.zeros(shape)
+        self._np1[spec.name] = np.zeros(shape, dtype=spec.dtype)
         if spec.temporal is Temporal.TWO_STEP:
-            self._n[spec.name] = np.zeros(shape)
+            self._n[spec.name] = np.zeros(shape, dtype=spec.dtype)
 
     # access ----------------------------------------------------------------------------------
     def __contains__(self, name: str) -> bool:

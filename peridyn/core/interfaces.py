@@ -76,6 +76,7 @@ class BlockView:
     bonds: "NeighborList"
     num_owned: int
     closed: bool = False
+    damage_symmetric: bool = False  #: the block's damage model gives both bond ends equal damage
     influence: Any = None  #: InfluenceFunction of the discretization
     time: float = 0.0
     time_step: float = 0.0
@@ -161,16 +162,25 @@ class DamageModel(ABC):
 
     name: ClassVar[str]
     Params: ClassVar[type[ModelParams]]
+    #: dtype of Bond_Damage: "uint8" for models whose bond damage is only ever 0 or 1
+    bond_damage_dtype: ClassVar[str] = "float64"
 
     def __init__(self, params: ModelParams, *, options: dict[str, Any] | None = None) -> None:
         self.params = params
         self.options = options or {}
 
+    @property
+    def symmetric(self) -> bool:
+        """True when both ends of every bond always get the same damage (the decision depends
+        only on quantities that are bitwise equal from both ends); materials then need not
+        look up the reverse bond."""
+        return False
+
     def fields(self) -> list[FieldSpec]:
         from .fields import Relation, Temporal
 
         return [
-            FieldSpec("Bond_Damage", Relation.BOND, 1, Temporal.TWO_STEP),
+            FieldSpec("Bond_Damage", Relation.BOND, 1, Temporal.TWO_STEP, dtype=self.bond_damage_dtype),
             FieldSpec("Damage", Relation.ELEMENT, 1, Temporal.TWO_STEP),
         ]
 

@@ -33,7 +33,7 @@ def critical_stretch_kernel(start, stop, offsets, neighbors, zeta, y, s_c, d_n, 
         hi = offsets[i + 1]
         for b in range(lo, hi):
             j = neighbors[b]
-            d = d_n[b] if copy_previous else d_np1[b]
+            d = float(d_n[b]) if copy_previous else float(d_np1[b])
             L0 = zeta[b]
             c0 = y[i, 0] - y[j, 0]
             c1 = y[i, 1] - y[j, 1]
@@ -41,8 +41,8 @@ def critical_stretch_kernel(start, stop, offsets, neighbors, zeta, y, s_c, d_n, 
             L = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
             if thermal:
                 L -= (alpha_T * dT[i]) * L0
-            if (L - L0) / L0 > s_c:
-                d = 1.0 if d < 1.0 else d
+            trial = 1.0 if (L - L0) / L0 > s_c else 0.0
+            d = trial if trial > d else d
             d_np1[b] = d
             acc += d
         damage[i] = acc / (hi - lo) if hi > lo else 0.0
@@ -58,6 +58,7 @@ class CriticalStretchParams(ModelParams):
 class CriticalStretch(DamageModel):
     name = "Critical Stretch"
     Params = CriticalStretchParams
+    bond_damage_dtype = "uint8"  # bonds are whole or broken: one byte per bond
     #: copy bond damage N into NP1 before each update (Peridigm's intent; see the time-dependent variant)
     copy_previous = True
 
@@ -65,6 +66,12 @@ class CriticalStretch(DamageModel):
         super().__init__(params, options=options)
         self.s_c = float(getattr(params, "critical_stretch", 0.0))
         self.alpha_T = params.thermal_expansion_coefficient
+
+    @property
+    def symmetric(self) -> bool:
+        # the stretch of i->j and j->i is computed from bitwise equal lengths; only the
+        # owner's temperature change can differ
+        return self.alpha_T is None
 
     def fields(self) -> list[FieldSpec]:
         specs = super().fields()

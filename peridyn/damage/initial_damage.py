@@ -21,6 +21,7 @@ class InitialDamageParams(ModelParams):
 class InitialDamage(DamageModel):
     name = "Initial Damage"
     Params = InitialDamageParams
+    bond_damage_dtype = "uint8"
 
     def initialize(self, block: BlockView) -> None:
         from ..core.bond_filters import flag_bonds, make_filter

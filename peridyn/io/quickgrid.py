@@ -256,7 +256,8 @@ def _grid_rule(points, x, shape, window, periodic1, spherical, delta) -> tuple[n
     else:
         counts = _grid_neighbors(points, x, n0, n1, n2, w0, w1, w2, periodic1, spherical, delta, empty, empty, False)
     offsets = _csr(counts)
-    neighbors = np.empty(max(int(offsets[-1]), 1), dtype=np.int64)
+    index_type = np.int32 if n0 * n1 * n2 < 2**31 else np.int64  # 4 bytes per bond when possible
+    neighbors = np.empty(max(int(offsets[-1]), 1), dtype=index_type)
     _grid_neighbors(points, x, n0, n1, n2, w0, w1, w2, periodic1, spherical, delta, offsets, neighbors, True)
     return offsets, neighbors[: int(offsets[-1])]
 

@@ -26,6 +26,7 @@ from ..core.params import ModelParams
 from .moduli import bulk_and_shear
 
 EMPTY = np.zeros(0)
+EMPTY_INDEX = np.zeros(0, dtype=np.int32)  # no reverse lookup: symmetric damage
 
 
 class ElasticBondBasedParams(ModelParams):
@@ -91,7 +92,8 @@ def fused_force_kernel(start, stop, offsets, neighbors, reverse, zeta, y, volume
             L = math.sqrt(ex * ex + ey * ey + ez * ez)
             half = (0.5 * ((L - L0) / L0)) * c
             if has_damage:
-                t = (1.0 - bond_damage[b]) * half + (1.0 - bond_damage[reverse[b]]) * half
+                d_rev = bond_damage[reverse[b]] if reverse.shape[0] > 0 else bond_damage[b]
+                t = (1.0 - bond_damage[b]) * half + (1.0 - d_rev) * half
             else:
                 t = half + half
             if L > 0.0:
@@ -158,7 +160,7 @@ class ElasticBondBased(Material):
     def force_fused(self, block: BlockView, force_density: np.ndarray) -> bool:
         s, nl = block.fields, block.bonds
         damage = self._damage(block)
-        reverse = nl.reverse() if damage.shape[0] else nl.neighbors
+        reverse = nl.reverse() if damage.shape[0] and not block.damage_symmetric else EMPTY_INDEX
         fused_force_kernel(
             block.start, block.stop, nl.offsets, nl.neighbors, reverse, s["Bond_Length"], s["Coordinates"], s["Volume"], self.c, damage, force_density
         )

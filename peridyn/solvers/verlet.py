@@ -12,6 +12,7 @@ import math
 import time as _time
 
 import numpy as np
+from numba import njit, prange
 from pydantic import Field
 
 from ..core.interfaces import Solver
@@ -72,7 +73,8 @@ class Verlet(Solver):
         f = sim.fields
         x, y, u, v = f["Model_Coordinates"], f["Coordinates"], f["Displacement"], f["Velocity"]
         has_b = "External_Force_Density" in f
-        rho = sim.density_per_point()[:, None]
+        rho = sim.density_per_point()
+        no_b = np.zeros((0, 3))
         a = getattr(sim, "acceleration", None)
         if a is None:
             a = sim.acceleration = np.zeros((n, 3))
@@ -84,7 +86,7 @@ class Verlet(Solver):
         sim.evaluate_forces()
         sim.apply_kinematic(t, t)
         sim.apply_body_forces(t)
-        self._acceleration(a, f["Force_Density"], f["External_Force_Density"] if has_b else None, rho)
+        acceleration_kick_kernel(n, f["Force_Density"], f["External_Force_Density"] if has_b else no_b, rho, dt2, a, v, False)
         sim.load_data(t)
         sim.write_output(t)
 
@@ -101,22 +103,18 @@ class Verlet(Solver):
             t = t0 + float(step) * dt
             sim.time_prev, sim.time = t_prev, t
             sim.begin_step(t)
-            v += dt2 * a
+            kick_kernel(n, v, a, dt2)
             sim.apply_kinematic(t, t_prev)
             np.copyto(f_old, f["Force_Density"])
             if has_b:
                 np.copyto(b_old, f["External_Force_Density"])
             sim.apply_body_forces(t)
-            np.multiply(v, dt, out=du)
-            np.add(x, u, out=y)
-            y += du
-            u += du
+            drift_kernel(n, v, dt, x, u, y, du)
             sim.load_data(t)
             tf0 = _time.perf_counter()
             sim.evaluate_forces()
             force_time += _time.perf_counter() - tf0
-            self._acceleration(a, f["Force_Density"], f["External_Force_Density"] if has_b else None, rho)
-            v += dt2 * a
+            acceleration_kick_kernel(n, f["Force_Density"], f["External_Force_Density"] if has_b else no_b, rho, dt2, a, v, True)
             monitor.force_work(du, f_old, f["Force_Density"], b_old, f["External_Force_Density"] if has_b else None)
             sim.load_data(t)
             sim.write_output(t)
@@ -148,9 +146,36 @@ class Verlet(Solver):
             }
         )
 
-    @staticmethod
-    def _acceleration(a, force, body, rho) -> None:
-        np.copyto(a, force)
-        if body is not None:
-            a += body
-        a /= rho
+
+@njit(cache=True, parallel=True)
+def kick_kernel(n, v, a, dt2):
+    """v += dt/2 a (the half kick before prescribed velocities are applied)."""
+    for i in prange(n):
+        for c in range(3):
+            v[i, c] += dt2 * a[i, c]
+
+
+@njit(cache=True, parallel=True)
+def drift_kernel(n, v, dt, x, u, y, du):
+    """du = dt v; y = (x + u) + du; u += du."""
+    for i in prange(n):
+        for c in range(3):
+            d = dt * v[i, c]
+            du[i, c] = d
+            y[i, c] = (x[i, c] + u[i, c]) + d
+            u[i, c] += d
+
+
+@njit(cache=True, parallel=True)
+def acceleration_kick_kernel(n, f, b, rho, dt2, a, v, kick):
+    """a = (f + b) / rho (b empty: no body force); then v += dt/2 a when ``kick``."""
+    has_b = b.shape[0] > 0
+    for i in prange(n):
+        for c in range(3):
+            acc = f[i, c]
+            if has_b:
+                acc += b[i, c]
+            acc /= rho[i]
+            a[i, c] = acc
+            if kick:
+                v[i, c] += dt2 * acc

@@ -188,7 +188,7 @@ def test_box_rule_is_the_clipped_box(shape, lengths, delta):
     n = [min(half_up(delta / hh), nn) for hh, nn in zip(h, shape)]
     assert disc.neighbor_rule.sizes(delta) == tuple(n)
     offsets, neighbors = disc.neighbor_rule(disc.gid, np.full(disc.num_points, delta))
-    assert offsets.dtype == np.int64 and neighbors.dtype == np.int64
+    assert offsets.dtype == np.int64 and neighbors.dtype == np.int32
     got = lists(offsets, neighbors)
     expected = brute_box(shape, n)
     assert len(got) == len(expected)
