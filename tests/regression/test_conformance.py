@@ -1,0 +1,42 @@
+"""Peridigm's reference cases that peridyn passes must keep passing.
+
+The cases live outside the project (../shared/conformance); the tests skip when it is absent.
+Each listed case runs through the shared runner, which compares our Exodus output with
+Peridigm's gold file under the case's tolerance file.
+"""
+import shlex
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+HERE = Path(__file__).resolve().parent
+RUNNER = HERE.parents[1].parent / "shared" / "conformance" / "run.py"
+
+
+def listed(name: str) -> list[str]:
+    lines = (HERE / name).read_text().splitlines()
+    return [ln.strip() for ln in lines if ln.strip() and not ln.startswith("#")]
+
+
+@pytest.mark.conformance
+@pytest.mark.skipif(not RUNNER.exists(), reason="../shared/conformance is not present")
+@pytest.mark.parametrize("case", listed("conformance_serial.txt"))
+def test_case_still_passes(case, tmp_path):
+    cmd = f"{shlex.quote(sys.executable)} -m peridyn run"
+    proc = subprocess.run(
+        [sys.executable, str(RUNNER), "--cmd", cmd, "--only", case, "--keep", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
+    assert "1 passed, 0 failed" in proc.stdout, proc.stdout[-3000:] + proc.stderr[-2000:]
+
+
+def test_list_names_real_cases():
+    if not RUNNER.exists():
+        pytest.skip("../shared/conformance is not present")
+    cases = RUNNER.parent / "cases"
+    missing = [c for c in listed("conformance_serial.txt") if not (cases / c).is_dir()]
+    assert not missing
