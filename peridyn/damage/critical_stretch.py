@@ -105,13 +105,14 @@ class TimeDependentCriticalStretch(CriticalStretch):
     """Critical stretch s_c = f(t), re-evaluated at the start of every explicit step (Peridigm
     re-creates damage models there; implicit solvers keep f(0)).
 
-    Peridigm's N -> NP1 copy is a no-op for this model, so the NP1 buffer keeps the maximum of
-    every trial that used it; peridyn reproduces that (PERIDIGM_SEMANTICS.md §5.3).
+    Peridigm's N -> NP1 copy is a no-op for this model (a defect: trial configurations of an
+    implicit step leave broken bonds behind, and explicit damage alternates between two
+    buffers). No reference result depends on it, so peridyn copies N into NP1 as for Critical
+    Stretch (docs/peridigm-differences.md).
     """
 
     name = "Time Dependent Critical Stretch"
     Params = TimeDependentCriticalStretchParams
-    copy_previous = False
 
     def __init__(self, params, *, options=None) -> None:
         super().__init__(params, options=options)

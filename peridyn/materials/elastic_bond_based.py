@@ -133,7 +133,9 @@ class ElasticBondBased(Material):
     def __init__(self, params: ElasticBondBasedParams, *, horizon: float | None, options=None) -> None:
         super().__init__(params, horizon=horizon, options=options)
         self.K = params.bulk()
-        delta = horizon if horizon is not None else float("nan")
+        if horizon is None:
+            raise ValueError("Elastic Bond Based needs a constant horizon (its micromodulus depends on it); give Horizon as a number")
+        delta = horizon
         if params.two_dimensional:
             self.c = (12.0 * self.K) / ((((math.pi * params.height) * delta) * delta) * delta)
         else:
