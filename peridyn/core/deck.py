@@ -446,6 +446,13 @@ def _parse_models(sec, section_name, kind, key, registry, file, errors, lines) -
 
 
 DISCRETIZATION_CORE_KEYS = ("Type", "Influence Function", "Bond Filters", "Omit Bonds Between Blocks")
+#: Peridigm discretization options peridyn does not implement yet
+DISCRETIZATION_UNSUPPORTED = {
+    "Construct Interfaces": "interface meshes are not supported yet",
+    "Compute Element-Horizon Intersections": "partial volumes (element-horizon intersections) are not supported yet",
+    "Element-Horizon Intersection Recursion Level": "partial volumes (element-horizon intersections) are not supported yet",
+    "Element-Horizon Intersection Number Of Samples": "partial volumes (element-horizon intersections) are not supported yet",
+}
 
 
 def _parse_discretization(raw, registry, file, errors, lines) -> DiscretizationEntry | None:
@@ -460,7 +467,10 @@ def _parse_discretization(raw, registry, file, errors, lines) -> DiscretizationE
         errors.append(registry.unknown("discretization", dtype, path=path + ("Type",), file=file))
         return None
     cls = registry.get("discretization", dtype, path=path + ("Type",), file=file)
-    body = {k: v for k, v in raw.items() if k not in DISCRETIZATION_CORE_KEYS and k != "Horizon"}
+    for key, reason in DISCRETIZATION_UNSUPPORTED.items():
+        if key in raw:
+            errors.append(InputError(f"{key!r}: {reason}", file=file, path=path + (key,), line=lines(path + (key,)), fix="remove the key"))
+    body = {k: v for k, v in raw.items() if k not in DISCRETIZATION_CORE_KEYS and k != "Horizon" and k not in DISCRETIZATION_UNSUPPORTED}
     params = validate_params(cls.Params, body, path=path, file=file, errors=errors, lines=lines)
     influence = raw.get("Influence Function", "One")
     if not isinstance(influence, str):
