@@ -41,18 +41,80 @@ def cmd_run(args) -> int:
     comm = get_comm()
     _setup_logging(args.verbose - args.quiet, comm.rank)
     wall0 = time.perf_counter()
-    deck = load_deck(args.deck)
     output_dir = Path(args.output_dir) if args.output_dir else Path.cwd()
+    if comm.size > 1:
+        return _run_parallel(args, comm, output_dir, wall0)
+    deck = load_deck(args.deck)
     sim = Simulation(deck, comm=comm, output_dir=output_dir, progress=not args.no_progress)
     _log_setup(sim)
     try:
         for entry in deck.solvers:
-            solver = entry.cls(entry.params, section=entry.section)
-            solver.run(sim)
+            entry.cls(entry.params, section=entry.section).run(sim)
     finally:
         sim.outputs.close()
     _log_summary(sim, time.perf_counter() - wall0)
     return ExitCode.OK
+
+
+def _agree_on_input(comm, action):
+    """Run ``action`` on every rank; if it raised InputError on any rank, rank 0 reports one
+    message and every rank returns the same error (no rank is left waiting in a collective)."""
+    result, message = None, None
+    try:
+        result = action()
+    except InputError as exc:
+        message = exc.one_line()
+    messages = [m for m in comm.allgather(message) if m is not None]
+    if messages:
+        if comm.rank == 0:
+            for line in messages[0].splitlines():
+                print(f"error: {line}", file=sys.stderr)
+        raise _ReportedInputError()
+    return result
+
+
+class _ReportedInputError(Exception):
+    """An input error already reported by rank 0."""
+
+
+def _run_parallel(args, comm, output_dir: Path, wall0: float) -> int:
+    from .core.deck import load_deck
+    from .core.engine import Simulation
+
+    try:
+        deck = _agree_on_input(comm, lambda: load_deck(args.deck))
+        sim = _agree_on_input(comm, lambda: Simulation(deck, comm=comm, output_dir=output_dir, progress=not args.no_progress and comm.rank == 0))
+    except _ReportedInputError:
+        return ExitCode.INPUT_ERROR
+    except Exception as exc:  # a failure on one rank must not leave the others waiting
+        _abort(comm, exc, args)
+    _log_setup(sim)
+    try:
+        for entry in deck.solvers:
+            entry.cls(entry.params, section=entry.section).run(sim)
+    except InstabilityError as exc:  # detected collectively: every rank raises it at the same step
+        sim.outputs.close()
+        if comm.rank == 0:
+            print(f"error: {exc}", file=sys.stderr)
+            print("the output written so far is kept and readable", file=sys.stderr)
+        return ExitCode.UNSTABLE
+    except BaseException as exc:
+        _abort(comm, exc, args)
+    sim.outputs.close()
+    _log_summary(sim, time.perf_counter() - wall0)
+    return ExitCode.OK
+
+
+def _abort(comm, exc: BaseException, args) -> None:
+    """Report an error raised on this rank and end every rank (MPI_Abort): never a hang."""
+    if getattr(args, "debug", False):
+        import traceback
+
+        traceback.print_exc()
+    code = exc.exit_code if isinstance(exc, PeridynError) else ExitCode.INTERRUPTED if isinstance(exc, KeyboardInterrupt) else ExitCode.FAILURE
+    text = exc.one_line() if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
+    print(f"error on rank {comm.rank} of {comm.size}: {text}; stopping all ranks", file=sys.stderr, flush=True)
+    comm.abort(int(code))
 
 
 def _log_setup(sim) -> None:
@@ -62,7 +124,7 @@ def _log_setup(sim) -> None:
         Path(sim.deck.file).name,
         sim.num_global,
         len(sim.blocks),
-        sim.comm.allreduce_sum(nl.num_bonds),
+        sim.num_bonds_global,
         sim.timers.get("setup", 0.0),
         sim.timers.get("read mesh", 0.0),
         sim.timers.get("neighbor search", 0.0),
@@ -91,8 +153,32 @@ def _log_summary(sim, wall: float) -> None:
                 100 * abs(e["balance_error"]) / scale,
                 100 * e["max_relative_error"],
             )
+    if sim.comm.size > 1:
+        _log_parallel(sim)
     files = [str(w.path.name) for w in sim.outputs.writers if w.frames]
     log.info("done in %.2f s; wrote %s", wall, ", ".join(files) if files else "no output")
+
+
+def _log_parallel(sim) -> None:
+    """Per-rank balance, ghosts, communication and memory (collective: every rank calls it)."""
+    import resource
+
+    steps = max(1, sum(st.get("steps", 0) for st in sim.stats.get("solvers", [])))
+    halo = sim.halo
+    mine = (
+        sim.num_owned,
+        sim.num_local - sim.num_owned,
+        int(sim.bonds.num_bonds),
+        halo.bytes_sent / steps,
+        halo.seconds / steps,
+        resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+    )
+    rows = sim.comm.allgather(mine)
+    for rank, (owned, ghosts, bonds, nbytes, secs, rss) in enumerate(rows):
+        log.info(
+            "  rank %d: %d points, %d ghosts (%.1f%%), %d bonds, halo %.1f kB and %.3f ms per step, peak memory %.0f MiB",
+            rank, owned, ghosts, 100.0 * ghosts / max(owned, 1), bonds, nbytes / 1e3, secs * 1e3, rss,
+        )
 
 
 # ------------------------------------------------------------------------------------------------
@@ -245,9 +331,18 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _single_threaded_blas() -> None:
     """peridyn's parallelism is its numba kernels; BLAS thread pools that spin between calls
-    steal their cores (measured: 60 % slower explicit runs on 2 cores). Set before numpy loads."""
+    steal their cores (measured: 60 % slower explicit runs on 2 cores). Set before numpy loads.
+    Under MPI, each rank gets its share of the node's cores for its numba threads (unless
+    NUMBA_NUM_THREADS is set), and idle threads sleep instead of spinning, so ranks and threads
+    do not compete for cores (see docs/parallel.md)."""
     for var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS", "VECLIB_MAXIMUM_THREADS"):
         os.environ.setdefault(var, "1")
+    from .core.parallel import launched_with_mpi, ranks_on_this_node
+
+    if launched_with_mpi():
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+        os.environ.setdefault("NUMBA_NUM_THREADS", str(max(1, cores // ranks_on_this_node())))
+        os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 
 def main(argv: list[str] | None = None) -> int:

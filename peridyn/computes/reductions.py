@@ -42,7 +42,8 @@ class NearestPointDataParams(ModelParams):
 
 def _reduce(values: np.ndarray, kind: str, comm) -> np.ndarray:
     """Column-wise reduction of (k,) or (k, c) values over the points of all ranks."""
-    values = values.reshape(values.shape[0], -1)
+    width = int(np.prod(values.shape[1:])) if values.ndim > 1 else 1
+    values = values.reshape(values.shape[0], width)
     if kind == "Sum":
         local = values.sum(axis=0) if values.shape[0] else np.zeros(values.shape[1])
         return comm.allreduce_sum(local)
@@ -114,7 +115,7 @@ class NodeSetData(_FieldReduction):
 
     def initialize(self, sim):
         members = sim.local_of_mothership[np.asarray(sim.discretization.node_sets[self.params.node_set], dtype=np.int64)]
-        members = members[members < sim.num_owned]
+        members = members[(members >= 0) & (members < sim.num_owned)]  # this rank's points
         # Peridigm visits the points block by block, then in owned order
         self.points = np.sort(members)
 
@@ -136,12 +137,13 @@ class NearestPointData(_FieldReduction):
         if d2.size:
             best = d2.min()
             candidates = np.nonzero(d2 == best)[0]
-            k = candidates[np.argmin(sim.gid[candidates])]
-            mine = (float(best), float(sim.gid[k]))
+            k = int(candidates[np.argmin(sim.gid[candidates])])
+            mine = (float(best), int(sim.gid[k]))
         else:
-            mine = (np.inf, np.inf)
-        winner = sim.comm.allreduce_min(np.array(mine)) if sim.comm.size > 1 else np.array(mine)
-        self.point = int(k) if d2.size and mine[1] == winner[1] and mine[0] == winner[0] else None
+            k, mine = -1, (np.inf, -1)
+        # the nearest point over all ranks; ties go to the smallest global id
+        winner = min(c for c in sim.comm.allgather(mine) if c[1] >= 0) if sim.num_global else (np.inf, -1)
+        self.point = k if mine == winner else None
 
     def compute(self, sim):
         spec = self._variable_spec(sim)

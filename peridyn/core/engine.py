@@ -191,12 +191,14 @@ class Simulation:
         self._fill_fields(disc)
         self._make_views()
         self._check_fusion()
+        self.num_bonds_global = int(self.comm.allreduce_sum(int(self.bonds.num_bonds)))
         self._warn_isolated()
         self._apply_initial_conditions()
         for blk in self.blocks:
             blk.material.initialize(blk.view)
             if blk.damage is not None:
                 blk.damage.initialize(blk.view)
+        self.exchange_halo_fields()
         self.data_loader = None
         if deck.data_loader is not None:
             from .data_loader import DataLoader
@@ -271,10 +273,22 @@ class Simulation:
                 horizon[mask] = float(f"{h:.16g}")
         return horizon
 
+    def _decompose(self, disc, horizon) -> np.ndarray:
+        """Owner rank of every point (all zeros in a serial run)."""
+        if self.comm.size == 1:
+            return np.zeros(disc.num_points, dtype=np.int64)
+        from .decomposition import bond_weights, recursive_coordinate_bisection
+
+        return recursive_coordinate_bisection(disc.x, bond_weights(disc.volume, horizon), self.comm.size)
+
     def _build_neighbors(self, disc, horizon):
+        """Neighbor lists (CSR rows in the order of ``self.owned_mothership``, entries mothership
+        indices) of the points this rank owns."""
         from .neighbors import omit_bonds_between_blocks, radius_search
 
-        points = np.arange(disc.num_points, dtype=np.int64)
+        self.owner = self._decompose(disc, horizon)
+        points = np.nonzero(self.owner == self.comm.rank)[0].astype(np.int64)
+        self.owned_mothership = points
         if disc.neighbor_rule is not None:
             offsets, neighbors = disc.neighbor_rule(points, horizon)
             neighbors = neighbors.astype(np.int32, copy=False)  # 4 bytes per bond from here on
@@ -285,23 +299,38 @@ class Simulation:
             from .bond_filters import apply_bond_filters, make_filter
 
             filters = [make_filter(raw, deck_dir=self.deck.directory, path=path) for _, raw, path in dentry.bond_filters]
-            offsets, neighbors = apply_bond_filters(disc.x, offsets, neighbors, filters)
+            offsets, neighbors = apply_bond_filters(disc.x, offsets, neighbors, filters, rows=points)
         if dentry.omit_bonds_between_blocks == "All":
-            offsets, neighbors = omit_bonds_between_blocks(offsets, neighbors, disc.block_id)
+            offsets, neighbors = omit_bonds_between_blocks(offsets, neighbors, disc.block_id, rows=points)
         return offsets, neighbors
 
     def _order_points(self, disc, offsets, neighbors, horizon) -> None:
-        """Local order: by block, then along a space-filling curve; rows sorted by global id."""
+        """Local order: owned points by block, then along a space-filling curve; then ghosts (by
+        owner, then global id). Rows are sorted by global id; ghosts have empty rows."""
         from .neighbors import NeighborList, renumber, sort_rows, space_filling_order
 
-        n = disc.num_points
-        sfc = space_filling_order(disc.x) if n else np.zeros(0, np.int64)
-        rank = np.empty(n, dtype=np.int64)
-        rank[sfc] = np.arange(n)
-        order = np.lexsort((rank, self.block_index_mothership))  # old (mothership) index per new index
-        new_of_old = np.empty(n, dtype=np.int64)
-        new_of_old[order] = np.arange(n)
-        offsets, neighbors = renumber(offsets, neighbors, new_of_old, order)
+        owned = self.owned_mothership
+        n_owned = owned.size
+        sfc = space_filling_order(disc.x[owned]) if n_owned else np.zeros(0, np.int64)
+        rank = np.empty(n_owned, dtype=np.int64)
+        rank[sfc] = np.arange(n_owned)
+        row_order = np.lexsort((rank, self.block_index_mothership[owned]))  # owned row per new index
+        owned_sorted = owned[row_order]
+        if self.comm.size > 1 and neighbors.size:
+            mask = np.zeros(disc.num_points, dtype=bool)
+            mask[neighbors] = True
+            mask[owned] = False
+            ghosts = np.nonzero(mask)[0]
+            ghosts = ghosts[np.lexsort((disc.gid[ghosts], self.owner[ghosts]))]
+        else:
+            ghosts = np.zeros(0, dtype=np.int64)
+        order = np.concatenate([owned_sorted, ghosts]).astype(np.int64)
+        n_local = order.size
+        new_of_old = np.full(disc.num_points, -1, dtype=np.int64)
+        new_of_old[order] = np.arange(n_local)
+        offsets, neighbors = renumber(offsets, neighbors, new_of_old, row_order)
+        if ghosts.size:
+            offsets = np.concatenate([offsets, np.full(ghosts.size, offsets[-1], dtype=np.int64)])
         gid_local = disc.gid[order]
         neighbors = sort_rows(offsets, neighbors, gid_local)
         self.bonds = NeighborList(np.ascontiguousarray(offsets, dtype=np.int64), np.ascontiguousarray(neighbors, dtype=np.int32), row_key=gid_local)
@@ -310,10 +339,11 @@ class Simulation:
         self.gid = gid_local
         self.block_index = self.block_index_mothership[order]
         self.horizon_local = horizon[order]
-        self.num_owned = n
-        self.num_local = n
-        counts = np.bincount(self.block_index, minlength=len(self.block_specs))
+        self.num_owned = n_owned
+        self.num_local = n_local
+        counts = np.bincount(self.block_index[:n_owned], minlength=len(self.block_specs))
         self.block_ranges = np.concatenate([[0], np.cumsum(counts)])
+        self.halo = self.comm.make_halo(order[n_owned:], self.owner[order[n_owned:]], np.arange(n_owned, n_local), new_of_old)
 
     def _create_models(self) -> None:
         deck = self.deck
@@ -404,11 +434,19 @@ class Simulation:
         open_mask = np.zeros(len(self.blocks), dtype=np.bool_)
         if len(self.blocks) > 1 and nl.num_bonds:
             crossing_blocks_kernel(self.num_owned, nl.offsets, nl.neighbors, self.block_index, open_mask)
+        open_mask = self.comm.allreduce_max(open_mask.astype(np.int64)) > 0
         open_blocks = set(np.nonzero(open_mask)[0].tolist())
         maybe_one_sided = bool(self.deck.discretization.bond_filters)
+        parallel = self.comm.size > 1
         reverse = None
         for blk in self.blocks:
             blk.fused = blk.index not in open_blocks and blk.horizon is not None
+            if parallel:
+                # a ghost's bond back to an owned point lives on another rank: both ends can be
+                # computed here only when they provably agree (symmetric or no damage)
+                blk.fused = blk.fused and not maybe_one_sided and (blk.damage is None or blk.damage.symmetric)
+                blk.view.closed = blk.fused
+                continue
             if blk.fused and maybe_one_sided and blk.stop > blk.start:
                 if reverse is None:
                     reverse = nl.reverse()
@@ -473,6 +511,8 @@ class Simulation:
                 errors.append(InputError(f"node set {raw_name!r} is defined both in the deck and in the mesh", file=deck.file, path=("Boundary Conditions",), fix="rename the deck's node set"))
                 continue
             self.node_sets[name] = np.asarray(members, dtype=np.int64)
+        if self._rank_deficient_node_set():
+            self.node_sets.setdefault("RANK_DEFICIENT_NODES", np.zeros(0, dtype=np.int64))
         self.conditions = []
         for bc in deck.boundary_conditions:
             ns = tidy(bc.params.node_set)
@@ -488,6 +528,7 @@ class Simulation:
                 continue
             obj = bc.cls(bc.params, entry_name=bc.name)
             members = self.local_of_mothership[self.node_sets[ns]]
+            members = members[(members >= 0) & (members < self.num_owned)]  # this rank's points
             obj.bind(np.unique(members) if obj.stage != "initial" else members, self._reference_x())
             self.conditions.append(obj)
         raise_collected(errors)
@@ -507,6 +548,17 @@ class Simulation:
             if c.target == "displacement":
                 self.prescribed_dofs[c.points, c.component] = True
 
+    def _rank_deficient_node_set(self) -> bool:
+        """Peridigm creates an empty RANK_DEFICIENT_NODES node set (and writes it to Exodus) when
+        the run allocates a full tangent and a block has a damage model (PERIDIGM_SEMANTICS.md
+        §1.4). Solvers say what they need through ``tangent_request(params)``: "full" or
+        "block diagonal" when the deck asks for one, "default" (full unless another solver asks
+        for a block-diagonal one), None for no tangent."""
+        if not any(entry.damage_model is not None for entry in self.deck.blocks):
+            return False
+        requests = [getattr(e.cls, "tangent_request", lambda params: None)(e.params) for e in self.deck.solvers]
+        return "full" in requests or ("default" in requests and "block diagonal" not in requests)
+
     def _reference_x(self) -> np.ndarray:
         return self.discretization.x[self.mothership_of_local]
 
@@ -524,13 +576,29 @@ class Simulation:
             if blk.damage is not None:
                 blk.damage.begin_step(blk.view, time)
 
+    def exchange_halo_fields(self) -> None:
+        """Refresh the ghost copies of the current positions and of every field marked halo."""
+        if self.comm.size == 1:
+            return
+        self.halo.exchange(self.fields["Coordinates"])
+        for name, spec in self.fields.specs.items():
+            if spec.halo and spec.is_point:
+                self.halo.exchange(self.fields[name])
+
     def evaluate_forces(self) -> np.ndarray:
         """Peridigm's evalModel: damage, precompute, force. Returns Force_Density (n, 3)."""
+        parallel = self.comm.size > 1
+        if parallel:
+            self.exchange_halo_fields()
         for blk in self.blocks:
             if blk.damage is not None:
                 blk.damage.update(blk.view)
         for blk in self.blocks:
             blk.material.precompute(blk.view)
+        if parallel:
+            for name, spec in self.fields.specs.items():
+                if spec.halo and spec.is_point:
+                    self.halo.exchange(self.fields[name])
         f = self.fields["Force_Density"]
         pending = []
         for blk in self.blocks:
@@ -550,6 +618,10 @@ class Simulation:
             y, vol = self.fields["Coordinates"], self.fields["Volume"]
             for blk in pending:
                 gather_scalar_force_kernel(blk.start, blk.stop, nl.offsets, nl.neighbors, in_offsets, in_bonds, sources, y, vol, t, f)
+            if parallel and self.num_local > self.num_owned:
+                # reactions of this rank's bonds on ghosts go to the ghosts' owners
+                gather_scalar_force_kernel(self.num_owned, self.num_local, nl.offsets, nl.neighbors, in_offsets, in_bonds, sources, y, vol, t, f)
+                self.halo.reverse_sum(f)
         return f
 
     def apply_kinematic(self, t: float, t_prev: float) -> None:
@@ -578,10 +650,8 @@ class Simulation:
     def density_per_point(self) -> np.ndarray:
         """(num_owned,) mass density of every owned point."""
         if not hasattr(self, "_rho"):
-            rho = np.empty(self.num_local)
-            for blk in self.blocks:
-                rho[blk.start : blk.stop] = blk.density
-            self._rho = rho
+            densities = np.array([blk.density for blk in self.blocks])
+            self._rho = densities[self.block_index] if self.num_local else np.zeros(0)
         return self._rho
 
     def critical_time_step(self) -> float:

@@ -26,6 +26,33 @@ def launched_with_mpi() -> bool:
     return False
 
 
+def ranks_on_this_node() -> int:
+    """Number of MPI ranks sharing this machine, from the launcher's environment (1 if unknown)."""
+    for name in ("MPI_LOCALNRANKS", "OMPI_COMM_WORLD_LOCAL_SIZE", "SLURM_NTASKS_PER_NODE", "PMI_SIZE"):
+        value = os.environ.get(name)
+        if value:
+            try:
+                return max(1, int(value.split("(")[0]))
+            except ValueError:
+                continue
+    return 1
+
+
+class NullHalo:
+    """The halo of a serial run: there are no ghosts."""
+
+    num_ghosts = 0
+    bytes_sent = 0
+    exchanges = 0
+    seconds = 0.0
+
+    def exchange(self, array) -> None:
+        pass
+
+    def reverse_sum(self, array) -> None:
+        pass
+
+
 class SerialComm:
     """A one-process communicator with the collective operations the engine uses."""
 
@@ -44,6 +71,12 @@ class SerialComm:
 
     def bcast(self, value: Any) -> Any:
         return value
+
+    def allgather(self, value: Any) -> list:
+        return [value]
+
+    def make_halo(self, *args) -> NullHalo:
+        return NullHalo()
 
     def gather_points(self, values: np.ndarray, owned_index: np.ndarray, total: int) -> np.ndarray | None:
         """Assemble a per-point array in global (mothership) order on the root rank.

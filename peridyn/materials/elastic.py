@@ -39,6 +39,9 @@ class ElasticParams(IsotropicElasticParams):
         True, alias="Apply Automatic Differentiation Jacobian", description="implicit solvers: use the exact tangent (true) or finite differences (false)"
     )
     compute_partial_stress: bool = Field(False, alias="Compute Partial Stress", description="accepted for compatibility")
+    finite_difference_probe_length: float | None = Field(
+        None, alias="Finite Difference Probe Length", gt=0, description="implicit solvers, finite-difference tangent: probe (L); default 1e-6 x the smallest element radius"
+    )
     ignored_keys = frozenset({"Apply Shear Correction Factor", "Hourglass Coefficient"})
 
 
@@ -308,6 +311,8 @@ class Elastic(Material):
             self._a = np.zeros(n)
             self._c = np.zeros(n)
         coefficients_kernel(block.start, block.stop, s["Weighted_Volume"], s["Dilatation"], self.K, self.mu, self._a, self._c)
+        if n > block.num_owned:  # ghosts (MPI): their dilatation and weighted volume are exchanged
+            coefficients_kernel(block.num_owned, n, s["Weighted_Volume"], s["Dilatation"], self.K, self.mu, self._a, self._c)
         return self._a, self._c
 
     def force_state(self, block: BlockView, t: np.ndarray) -> None:
@@ -335,6 +340,25 @@ class Elastic(Material):
         fused_force_kernel(
             block.start, block.stop, nl.offsets, nl.neighbors, reverse, s["Bond_Length"], s["Coordinates"], s["Volume"],
             a, c, kind, delta, table, damage, dT, aT, force_density,
+        )
+        return True
+
+    def tangent(self, block: BlockView, target) -> bool:
+        """Analytic d(f V)/dy (peridyn.materials.tangents), unless the deck asks for Peridigm's
+        finite differences (``Apply Automatic Differentiation Jacobian: false``)."""
+        if not self.params.apply_ad_jacobian:
+            return False
+        from .tangents import lps_tangent_kernel
+
+        s, nl = block.fields, block.bonds
+        kind, delta, table = self._common(block)
+        dT, aT = self._dT(block)
+        T = target
+        lps_tangent_kernel(
+            block.start, block.stop, T.nrows, T.nchunks, nl.offsets, nl.neighbors, T.in_offsets, T.in_bonds, T.sources,
+            T.eval_rank, s["Bond_Length"], s["Coordinates"], s["Volume"], s["Weighted_Volume"], s["Dilatation"], self.K, self.mu,
+            kind, delta, table, self._damage(block), dT, aT, T.row_of_local, T.local_of_row, T.indptr, T.indices, T.data,
+            T.max_degree, T.max_in,
         )
         return True
 

@@ -105,29 +105,28 @@ class EnergyMonitor:
         self.stored = 0.0  # relative to the start of this solver
         self.external = 0.0
         self.constraint = 0.0
+        self._pending = (0.0, 0.0, 0.0)
         self.history: list[tuple[float, float]] = []  # (kinetic, energy scale) of recent steps
         self.max_balance = 0.0  # largest |balance| seen
         self.max_scale = abs(self.kinetic0)  # largest energy present at any time
 
+    def _kinetic_local(self) -> float:
+        return kinetic_free_kernel(self.sim.num_owned, self.sim.fields["Velocity"], self.mass, self.free)
+
     def kinetic_free(self) -> float:
-        n = self.sim.num_owned
-        return self.sim.comm.allreduce_sum(kinetic_free_kernel(n, self.sim.fields["Velocity"], self.mass, self.free))
+        return self.sim.comm.allreduce_sum(self._kinetic_local())
 
     # called by the integrator ------------------------------------------------------------------
     def force_work(self, du: np.ndarray, f_old: np.ndarray, f_new: np.ndarray, b_old, b_new) -> None:
         """Account for one step: displacement increment du (n, 3), internal force densities
-        before/after, body force densities before/after (or None)."""
+        before/after, body force densities before/after (or None). The sums are reduced over
+        ranks together with the next ``check`` (one reduction per step)."""
         sim = self.sim
         empty = self._empty
-        w_all, w_presc, w_body = step_work_kernel(
+        self._pending = step_work_kernel(
             sim.num_owned, du, f_old, f_new, b_old if b_old is not None else empty, b_new if b_new is not None else empty,
             sim.fields["Volume"], self.free,
         )
-        if sim.comm.size > 1:
-            w_all, w_presc, w_body = sim.comm.allreduce_sum(np.array([w_all, w_presc, w_body]))
-        self.stored -= w_all
-        self.constraint -= w_presc
-        self.external += w_body
 
     @property
     def max_error(self) -> float:
@@ -145,10 +144,15 @@ class EnergyMonitor:
     def check(self, step: int, time: float) -> None:
         sim = self.sim
         n = sim.num_owned
-        self.kinetic = self.kinetic_free()
-        f = sim.fields["Force_Density"][:n]
-        total = self.kinetic + float(np.sum(f))
-        if not math.isfinite(sim.comm.allreduce_sum(total)):
+        w_all, w_presc, w_body = self._pending
+        local = np.array([w_all, w_presc, w_body, self._kinetic_local(), float(np.sum(sim.fields["Force_Density"][:n]))])
+        total = sim.comm.allreduce_sum(local) if sim.comm.size > 1 else local
+        self._pending = (0.0, 0.0, 0.0)
+        self.stored -= total[0]
+        self.constraint -= total[1]
+        self.external += total[2]
+        self.kinetic = float(total[3])
+        if not (math.isfinite(total[3]) and math.isfinite(total[4])):
             self._fail_nonfinite(step, time)
         scale = self._scale()
         err = abs(self.balance)

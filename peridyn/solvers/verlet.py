@@ -132,7 +132,7 @@ class Verlet(Solver):
                 "dt_estimate": dt_crit,
                 "wall": wall,
                 "force_time": force_time,
-                "bond_evaluations": nsteps * sim.bonds.num_bonds,
+                "bond_evaluations": nsteps * sim.num_bonds_global,
                 "point_steps": nsteps * sim.num_global,
                 "energy": {
                     "kinetic_initial": monitor.kinetic0,

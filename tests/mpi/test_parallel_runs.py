@@ -1,0 +1,148 @@
+"""The same results on any number of ranks, one output file, errors that end every rank."""
+import shutil
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from peridyn.io.deckfile import dump_yaml
+from peridyn.io.exodus_reader import read_results
+from peridyn.testing import cube_deck
+
+from peridyn.testing.mpi import mpirun, requires_mpi
+
+pytestmark = [pytest.mark.mpi, requires_mpi]
+REGRESSION = Path(__file__).resolve().parents[1] / "regression" / "data"
+
+
+def run_deck(tree: dict, folder: Path, ranks: int, name: str = "deck") -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / f"{name}.yaml").write_text(dump_yaml(tree))
+    proc = mpirun(ranks, ["run", f"{name}.yaml", "-q"], folder)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return folder
+
+
+def assert_same_results(a: Path, b: Path, rtol=1e-9) -> None:
+    ra, rb = read_results(a), read_results(b)
+    np.testing.assert_array_equal(ra["coords"], rb["coords"])
+    np.testing.assert_array_equal(ra["node_num_map"], rb["node_num_map"])
+    np.testing.assert_array_equal(ra["elem_num_map"], rb["elem_num_map"])
+    np.testing.assert_array_equal(ra["times"], rb["times"])
+    for kind in ("nodal", "element", "global"):
+        assert set(ra[kind]) == set(rb[kind])
+        # round-off is relative to the size of the whole vector (a component that sums to ~0
+        # is round-off noise itself)
+        scales = {}
+        for name, y in rb[kind].items():
+            base = name[:-1] if name[-1:] in "XYZ" else name
+            scales[base] = max(scales.get(base, 0.0), float(np.nanmax(np.abs(y))) if np.size(y) else 0.0)
+        for name in ra[kind]:
+            if name == "Proc_Num":
+                continue
+            x, y = ra[kind][name], rb[kind][name]
+            scale = scales[name[:-1] if name[-1:] in "XYZ" else name]
+            np.testing.assert_allclose(x, y, rtol=0, atol=rtol * scale + 1e-300, err_msg=f"{kind} {name}")
+
+
+@pytest.mark.parametrize("ranks", [2, 3])
+def test_two_material_damage_deck_matches_serial(tmp_path, ranks):
+    """Multi-block, two materials (fused and generic force paths), damage, body force, node
+    sets, computes: every output of 2 and 3 ranks equals the serial run to round-off, in one
+    file with the serial point order."""
+    for f in REGRESSION.glob("two_materials*"):
+        if "_gold" not in f.name:
+            shutil.copy(f, tmp_path / f.name)
+    serial = tmp_path / "serial"
+    serial.mkdir()
+    for f in tmp_path.glob("two_materials*"):
+        shutil.copy(f, serial / f.name)
+    assert mpirun(1, ["run", "two_materials.yaml", "-q"], serial).returncode == 0
+    par = tmp_path / f"np{ranks}"
+    par.mkdir()
+    for f in tmp_path.glob("two_materials*"):
+        shutil.copy(f, par / f.name)
+    proc = mpirun(ranks, ["run", "two_materials.yaml", "-q"], par)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert sorted(p.name for p in par.glob("two_materials*.e*")) == ["two_materials.e"]  # one merged file
+    assert_same_results(par / "two_materials.e", serial / "two_materials.e")
+
+
+def test_proc_num_shows_the_owning_rank(tmp_path):
+    tree = cube_deck({"Material Model": "Elastic", "Density": 1000.0, "Bulk Modulus": 1e9, "Shear Modulus": 1e9}, n=6)
+    tree["Solver"] = {"Final Time": 1e-5, "Verlet": {"Safety Factor": 0.5}}
+    tree["Output"] = {"Output Filename": "procs", "Output Frequency": 1000, "Output Variables": {"Proc_Num": True, "Element_Id": True}}
+    run_deck(tree, tmp_path, 2)
+    r = read_results(tmp_path / "procs.e")
+    procs = r["element"]["Proc_Num"][0]
+    assert set(np.unique(procs)) == {0.0, 1.0}
+    assert abs((procs == 0).sum() - (procs == 1).sum()) <= 36  # balanced halves of a 6^3 cube
+    np.testing.assert_array_equal(r["element"]["Element_Id"][0], np.arange(1, 217))
+
+
+def test_ranks_without_points(tmp_path):
+    """3 ranks on a 2-point deck: one rank owns nothing and the run still matches serial."""
+    tree = cube_deck({"Material Model": "Elastic", "Density": 7800.0, "Bulk Modulus": 130e9, "Shear Modulus": 78e9}, n=1)
+    g = tree["Discretization"]["TensorProduct3DMeshGenerator"]
+    g.update({"X Length": 2.0, "Number Points X": 2})
+    tree["Blocks"]["B"]["Horizon"] = 1.5
+    tree["Boundary Conditions"] = {"One Node Set": "1", "Kick": {"Type": "Initial Velocity", "Node Set": "One Node Set", "Coordinate": "x", "Value": "1.0"}}
+    tree["Solver"] = {"Final Time": 1e-4, "Verlet": {"Fixed dt": 1e-5}}
+    tree["Output"] = {"Output Filename": "two", "Output Frequency": 1, "Output Variables": {"Displacement": True, "Velocity": True, "Dilatation": True, "Global_Kinetic_Energy": True}}
+    run_deck(tree, tmp_path / "s", 1)
+    run_deck(tree, tmp_path / "p", 3)
+    assert_same_results(tmp_path / "p" / "two.e", tmp_path / "s" / "two.e", rtol=1e-12)
+
+
+def test_bad_input_is_reported_once_with_status_2(tmp_path):
+    tree = cube_deck({"Material Model": "Elastic", "Density": 1000.0, "Bulk Modulos": 1e9, "Shear Modulus": 1e9}, n=3)
+    (tmp_path / "bad.yaml").write_text(dump_yaml(tree))
+    proc = mpirun(2, ["run", "bad.yaml"], tmp_path, timeout=120)
+    assert proc.returncode == 2
+    errors = [ln for ln in proc.stderr.splitlines() if ln.startswith("error:")]
+    assert len(errors) == 1 and "Bulk Modulos" in errors[0]
+
+
+RAISING_PLUGIN = '''
+from peridyn.plugins.hookspecs import hookimpl
+
+@hookimpl
+def peridyn_materials():
+    return [("Fails On Rank One", "fake_failing_material:Failing")]
+'''
+
+RAISING_MODEL = '''
+from peridyn.materials.elastic_bond_based import ElasticBondBased
+
+class Failing(ElasticBondBased):
+    name = "Fails On Rank One"
+    calls = 0
+
+    def force_fused(self, block, f):
+        Failing.calls += 1
+        import os
+        if Failing.calls == 3 and os.environ.get("PMI_RANK") == "1":
+            raise RuntimeError("simulated failure on one rank")
+        return super().force_fused(block, f)
+'''
+
+
+def test_an_exception_on_one_rank_ends_every_rank(tmp_path):
+    site = tmp_path / "site"
+    site.mkdir()
+    (site / "fake_failing_plugin.py").write_text(RAISING_PLUGIN)
+    (site / "fake_failing_material.py").write_text(RAISING_MODEL)
+    info = site / "fake_failing-1.0.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: fake-failing\nVersion: 1.0\n")
+    (info / "entry_points.txt").write_text("[peridyn]\nfake_failing = fake_failing_plugin\n")
+    tree = cube_deck({"Material Model": "Fails On Rank One", "Density": 1000.0, "Bulk Modulus": 1e9}, n=6)
+    tree["Solver"] = {"Final Time": 1.0, "Verlet": {"Safety Factor": 0.5}}
+    (tmp_path / "fail.yaml").write_text(dump_yaml(tree))
+    import os
+
+    env = {"PYTHONPATH": str(site) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    proc = mpirun(2, ["run", "fail.yaml"], tmp_path, timeout=120, env=env)  # a hang fails by timeout
+    assert proc.returncode != 0
+    assert "error on rank 1 of 2: RuntimeError: simulated failure on one rank; stopping all ranks" in proc.stderr
