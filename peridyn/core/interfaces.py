@@ -109,6 +109,9 @@ class Material(ABC):
     Params: ClassVar[type[ModelParams]]
     #: "scalar": central force states in a per-bond scalar (see class docstring)
     force_state_kind: ClassVar[str] = "scalar"
+    #: point fields ``precompute`` writes that the other end of a bond reads (under MPI they are
+    #: exchanged to ghosts after every precompute; other halo fields once, after initialize)
+    precompute_fields: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, params: ModelParams, *, horizon: float | None, options: dict[str, Any] | None = None) -> None:
         self.params = params
@@ -150,6 +153,20 @@ class Material(ABC):
         """Stored elastic energy per unit volume of the block's points into ``out[start:stop]``
         (M L^-1 T^-2). Default: zero (Peridigm's base material)."""
         out[block.start : block.stop] = 0.0
+
+    #: which degrees of freedom the tangent of a point's bonds couples: "family" (every pair of
+    #: {i} U N_i, e.g. state-based models) or "pairs" (bonded pairs only, bond-based models)
+    tangent_coupling: ClassVar[str] = "family"
+
+    def tangent(self, block: BlockView, target: Any) -> bool:
+        """Add the tangent d(f V)/dy (force per length) of the block's points' bonds to the
+        implicit solvers' matrix ``target`` (a :class:`peridyn.solvers.tangent.TangentTarget`:
+        3x3-block sparse rows in global-id order, see :mod:`peridyn.materials.tangents`) and
+        return True; fields are as left by ``precompute`` at the current configuration.
+
+        Default: return False, and the solver builds the tangent by central finite differences
+        of ``force_state`` on one point at a time (Peridigm's finite-difference Jacobian)."""
+        return False
 
 
 # ------------------------------------------------------------------------------------------------

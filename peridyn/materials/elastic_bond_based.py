@@ -36,6 +36,9 @@ class ElasticBondBasedParams(ModelParams):
     plane_strain: bool = Field(False, alias="Plane Strain", description="2D plane strain (needs Height)")
     plane_stress: bool = Field(False, alias="Plane Stress", description="2D plane stress (needs Height)")
     height: float | None = Field(None, alias="Height", gt=0, description="thickness of a 2D model (L)")
+    finite_difference_probe_length: float | None = Field(
+        None, alias="Finite Difference Probe Length", gt=0, description="accepted for compatibility (this model has an exact tangent)"
+    )
     ignored_keys = frozenset({"Apply Shear Correction Factor"})
 
     @model_validator(mode="after")
@@ -165,6 +168,21 @@ class ElasticBondBased(Material):
         reverse = nl.reverse() if damage.shape[0] and not block.damage_symmetric else EMPTY_INDEX
         fused_force_kernel(
             block.start, block.stop, nl.offsets, nl.neighbors, reverse, s["Bond_Length"], s["Coordinates"], s["Volume"], self.c, damage, force_density
+        )
+        return True
+
+    tangent_coupling = "pairs"
+
+    def tangent(self, block: BlockView, target) -> bool:
+        """Analytic d(f V)/dy of the pair forces (peridyn.materials.tangents)."""
+        from .tangents import bond_based_tangent_kernel
+
+        s, nl = block.fields, block.bonds
+        T = target
+        bond_based_tangent_kernel(
+            block.start, block.stop, T.nrows, T.nchunks, nl.offsets, nl.neighbors, T.in_offsets, T.in_bonds, T.sources,
+            T.eval_rank, s["Bond_Length"], s["Coordinates"], s["Volume"], self.c, self._damage(block), T.row_of_local,
+            T.local_of_row, T.indptr, T.indices, T.data, T.max_in,
         )
         return True
 

@@ -40,6 +40,9 @@ def peridyn_contact_models():
 def peridyn_solvers():
     return [
         ("Verlet", "peridyn.solvers.verlet:Verlet"),
+        ("QuasiStatic", "peridyn.solvers.quasistatic:QuasiStatic"),
+        ("NOXQuasiStatic", "peridyn.solvers.nox:NOXQuasiStatic"),
+        ("Implicit", "peridyn.solvers.implicit:Implicit"),
     ]
 
 

@@ -1,0 +1,389 @@
+"""``QuasiStatic``: load-stepped Newton solution of static equilibrium f + b = 0, step for step
+as Peridigm's ``executeQuasiStatic`` (PERIDIGM_SEMANTICS.md §11.2).
+
+Each load step t_k: the prescribed displacement increments are applied (Delta u on the
+prescribed dofs, the rest 0), y = (x + u) + Delta u, v = Delta u / Delta t, and Newton iterations
+on the residual r = (f + b) V (prescribed dofs zeroed; norm ||r||_2 + 20 ||r||_inf) run while the
+norm exceeds the tolerance (absolute, or relative to the reaction norm) and at most ``Maximum
+Solver Iterations`` times:
+
+* iteration 1 of steps after the first (or of the first, with ``Initialize Predictor From
+  Previous Solver``) takes the predictor Delta u += v_previous Delta t without a solve;
+* otherwise the tangent K (analytic, or finite differences; prescribed rows/columns replaced by
+  the mean absolute diagonal) is rebuilt and (-K) lhs = r solved (plain CG to 1e-4 by default,
+  see :mod:`peridyn.solvers.linear`); a failed solve is retried once on a damped tangent
+  (diag * ``Damped Newton Diagonal Scale Factor`` + ``Shift Factor`` * max|diag|), which also
+  switches the rest of the step to damped Newton (tangent rebuilt every 8 iterations);
+* the step length comes from Peridigm's line search (a secant estimate, then fixed candidate
+  lists), 1 with ``Disable Heuristics``.
+
+A step that ends above the tolerance is accepted when within 100 x the tolerance; otherwise the
+remaining load steps are skipped (later solvers still run) or, with ``Adaptive Load-Stepping``,
+the step is halved and retried, up to the given numbers of reductions, after which the solver
+either stops or (``Switch to Verlet``) continues from the last converged step with explicit
+dynamics. Reactions: ``Force_Density`` (and ``Force`` = V f) at the prescribed points hold the
+internal force at the converged configuration, i.e. the negated reactions, as Peridigm writes.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import time as _time
+from typing import Literal
+
+import numpy as np
+from pydantic import Field, field_validator, model_validator
+
+from ..core.interfaces import Solver
+from ..core.params import ModelParams
+from ..errors import InputError, InstabilityError
+from .common import SolverSection
+from .linear import METHODS, LinearSolver
+from .newton import ImplicitProblem, threads_for, check_time_steps, load_times, solver_stats
+
+log = logging.getLogger("peridyn.solver")
+
+#: Peridigm's quasiStaticsLineSearch candidate lists
+FIRST_CANDIDATES = (0.1, 0.2, 0.3, 0.5, 0.75, 1.0)
+SECOND_CANDIDATES = tuple(
+    [0.002 * (i + 1) for i in range(25)] + [0.01 * (i + 1) + 0.05 for i in range(15)] + [0.05 * (i + 1) + 0.2 for i in range(6)]
+    + [0.75, 1.0, 1.5, 2.0, 5.0, 10.0]
+)
+PURE_NEWTON_STEPS = 50
+DAMPED_TANGENT_INTERVAL = 8
+
+
+class SwitchToVerletParams(ModelParams):
+    fixed_dt: float | None = Field(None, alias="Fixed dt", gt=0, description="time step of the explicit continuation (T)")
+    safety_factor: float | None = Field(None, alias="Safety Factor", gt=0, description="multiplies the critical time step when Fixed dt is not given (default 1)")
+    output_frequency: int | None = Field(None, alias="Output Frequency", ge=1, description="new Output Frequency of every output")
+
+
+class AdaptiveLoadSteppingParams(ModelParams):
+    max_reductions_in_step: int = Field(alias="Maximum load step reductions in one step", ge=0, description="halvings allowed for one load step")
+    max_total_reductions: int = Field(alias="Maximum total load step reductions", ge=0, description="halvings allowed in the whole solver")
+    reduce_all_remaining: bool = Field(False, alias="Reduce all remaining load steps", description="after a halving, use the smaller step to the end")
+    adaptive_output_frequency: bool = Field(False, alias="Adaptive output frequency", description="double every output frequency at each halving")
+    switch_to_verlet: SwitchToVerletParams | None = Field(None, alias="Switch to Verlet", description="continue with Verlet when the reductions run out")
+
+    @model_validator(mode="after")
+    def _limits(self):
+        if self.max_total_reductions < self.max_reductions_in_step:
+            raise ValueError("'Maximum total load step reductions' cannot be smaller than 'Maximum load step reductions in one step'")
+        return self
+
+
+class LoadStepKeys(ModelParams):
+    """Keys every load-stepping implicit solver sublist shares."""
+
+    number_of_load_steps: int | None = Field(None, alias="Number of Load Steps", ge=1, description="load steps from Initial Time to Final Time (needs Final Time)")
+    time_steps: str | None = Field(None, alias="Time Steps", description="times of the load steps, initial time first, e.g. \"0.0 0.5 1.0\"")
+    relative_tolerance: float = Field(1.0e-6, alias="Relative Tolerance", gt=0, description="residual tolerance relative to the reaction norm")
+    absolute_tolerance: float | None = Field(None, alias="Absolute Tolerance", gt=0, description="residual tolerance (force units); replaces the relative one")
+
+    _check_times = field_validator("time_steps")(lambda cls, v: check_time_steps(v) if v is not None else v)
+
+
+class QuasiStaticParams(LoadStepKeys):
+    maximum_solver_iterations: int = Field(10, alias="Maximum Solver Iterations", ge=0, description="Newton iterations per load step")
+    damped_newton_scale: float = Field(1.0001, alias="Damped Newton Diagonal Scale Factor", gt=0, description="damped Newton: the diagonal is multiplied by this")
+    damped_newton_shift: float = Field(1.0e-5, alias="Damped Newton Diagonal Shift Factor", ge=0, description="damped Newton: plus this times the largest diagonal entry")
+    belos_linear_solver: Literal["BlockCG", "BlockGMRES"] = Field("BlockCG", alias="Belos Linear Solver", description="Peridigm's Krylov method")
+    belos_maximum_iterations: int | None = Field(None, alias="Belos Maximum Iterations", ge=1, description="Krylov iterations per solve (default: number of unknowns)")
+    belos_relative_tolerance: float = Field(1.0e-4, alias="Belos Relative Tolerance", gt=0, lt=1, description="Krylov stopping tolerance, relative to the right-hand side")
+    belos_print_status: bool = Field(False, alias="Belos Print Status", description="accepted; use --verbose")
+    adaptive: AdaptiveLoadSteppingParams | None = Field(None, alias="Adaptive Load-Stepping", description="halve load steps that do not converge")
+    linear_solver: Literal[METHODS] = Field(  # type: ignore[valid-type]
+        "Belos", alias="Linear Solver", description="peridyn: Belos (Peridigm's CG/GMRES, default), Direct (sparse LU), AMG (pyamg-preconditioned CG), Auto"
+    )
+    linear_solver_tolerance: float = Field(1.0e-8, alias="Linear Solver Tolerance", gt=0, lt=1, description="peridyn: relative tolerance of the AMG solver")
+    ignored_keys = frozenset({"Verbose"})
+
+
+class QuasiStaticSection(SolverSection):
+    quasi_static: QuasiStaticParams = Field(alias="QuasiStatic", description="load-stepped static equilibrium")
+    probe_length: float | None = Field(
+        None, alias="Finite Difference Probe Length", gt=0, description="finite-difference tangent probe (L); default 1e-6 x the smallest element radius"
+    )
+
+    @model_validator(mode="after")
+    def _times(self):
+        q = self.quasi_static
+        if not ((self.given("final_time") and q.number_of_load_steps is not None) or q.time_steps is not None):
+            raise ValueError(
+                "no load steps: give 'Final Time' in the solver section with 'QuasiStatic > Number of Load Steps', or 'QuasiStatic > Time Steps'"
+            )
+        return self
+
+
+def fmod_zero(a: int, b: int) -> bool:
+    """C's ``a % b == 0`` (the remainder takes the sign of a)."""
+    return math.fmod(a, b) == 0.0
+
+
+class QuasiStatic(Solver):
+    name = "QuasiStatic"
+    Params = QuasiStaticSection
+
+    @classmethod
+    def tangent_request(cls, params) -> str:
+        """The tangent this solver allocates (see Simulation._rank_deficient_node_set)."""
+        return "default"
+
+    def run(self, sim) -> None:
+        with threads_for(sim):
+            QuasiStaticRun(self, sim).run()
+
+
+class QuasiStaticRun:
+    """State of one QuasiStatic solver run."""
+
+    def __init__(self, solver: QuasiStatic, sim) -> None:
+        self.solver = solver
+        self.sim = sim
+        self.p = solver.params
+        self.q = solver.params.quasi_static
+        self.section = solver.section
+        self.problem = ImplicitProblem(sim, "full")
+        n = sim.num_owned
+        self.n = n
+        f = sim.fields
+        self.x = f["Model_Coordinates"]
+        self.u = f["Displacement"]
+        self.y = f["Coordinates"]
+        self.v = f["Velocity"]
+        self.du = np.zeros((sim.num_local, 3))
+        T = self.problem.tangent
+        q = self.q
+        self.linear = LinearSolver(
+            method=q.linear_solver,
+            tol=q.belos_relative_tolerance if q.linear_solver == "Belos" else q.linear_solver_tolerance,
+            maxiter=q.belos_maximum_iterations if q.linear_solver == "Belos" else q.belos_maximum_iterations or 2000,
+            belos_method=q.belos_linear_solver,
+            symmetric=True,
+            coords=T.to_rows(self.x).reshape(n, 3),
+        )
+        self.heuristics = not self.p.disable_heuristics
+        self.dt = 1.0
+        self.residuals: list[list[float]] = []  # per load step attempt: residual norm before each iteration and at the end
+
+    # -- state ----------------------------------------------------------------------------------
+    def set_trial(self, du: np.ndarray) -> None:
+        """y = (x + u) + du, v = du / dt."""
+        np.add(self.x, self.u, out=self.y)
+        self.y += du
+        np.divide(du, self.dt, out=self.v)
+
+    def trial_residual(self, du: np.ndarray) -> tuple[float, np.ndarray]:
+        self.set_trial(du)
+        return self.problem.qs_residual()
+
+    # -- line search ----------------------------------------------------------------------------
+    def line_search(self, r: np.ndarray, lhs_rows: np.ndarray, lhs: np.ndarray) -> float:
+        """Peridigm's quasiStaticsLineSearch: the step length along lhs."""
+        prob = self.problem
+        du0 = self.du.copy()
+        rho0, r0 = prob.qs_residual()
+        if not math.isfinite(rho0):
+            raise InstabilityError(f"{self.section}: the residual is not finite (t = {self.sim.time:.6g}); the load step is too large or the model is unstable")
+        if rho0 == 0.0:
+            return 0.0
+        best_alpha, best = 1.0, 1.0e50
+        eps = 1.0e-4
+        _, r_plus = self.trial_residual(du0 + eps * lhs)
+        S = prob.dot(lhs_rows, r0)
+        S_plus = prob.dot(lhs_rows, r_plus)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            guess = float(np.float64(-1.0 * eps * S) / np.float64(S_plus - S))
+        candidates = ([guess] if -0.1 < guess < 10.0 else []) + list(FIRST_CANDIDATES)
+        for alpha in candidates:
+            rho, _ = self.trial_residual(du0 + alpha * lhs)
+            if math.isfinite(rho) and rho < best:
+                best_alpha, best = alpha, rho
+        if (rho0 - best) / rho0 > 0.02:
+            return best_alpha
+        increases = []
+        for alpha in SECOND_CANDIDATES:
+            rho, _ = self.trial_residual(du0 + alpha * lhs)
+            if math.isfinite(rho):
+                if rho < best:
+                    best_alpha, best = alpha, rho
+                elif rho > rho0:
+                    increases.append((alpha, (rho - rho0) / rho0))
+        if (rho0 - best) / rho0 > 0.0001:
+            return best_alpha
+        log.info("%s: line search cannot reduce the residual; trying to leave a local minimum by raising it about 10%%", self.section)
+        target, closest = 0.1, 1.0e50
+        for alpha, inc in increases:
+            if abs(inc - target) < closest:
+                best_alpha, closest = alpha, abs(inc - target)
+        return best_alpha
+
+    # -- one load step --------------------------------------------------------------------------
+    def newton(self, step: int, predictor: np.ndarray, use_predictor_first: bool) -> tuple[float, float, int]:
+        """Newton iterations of one load step from the current du; returns (residual norm,
+        tolerance, iterations)."""
+        sim, prob, q = self.sim, self.problem, self.q
+        T = prob.tangent
+        res, r = prob.qs_residual()
+        if q.absolute_tolerance is not None:
+            tol = q.absolute_tolerance
+        else:
+            tol = q.relative_tolerance * prob.reaction_norm()
+        it = 1
+        damped = False
+        history = [res]
+        self.residuals.append(history)
+        while res > tol and it <= q.maximum_solver_iterations:
+            sim.nonlinear_iterations += 1
+            log.debug("%s: load step %d, iteration %d: residual %.6g (tolerance %.6g)", self.section, step, it, res, tol)
+            if it == 1 and (step > 1 or use_predictor_first) and self.heuristics:
+                lhs = predictor * self.dt
+                lhs[prob.fixed_local] = 0.0
+                ok = True
+            else:
+                if it > PURE_NEWTON_STEPS and not damped and self.heuristics:
+                    log.info("%s: switching to damped Newton", self.section)
+                    damped = True
+                if not damped or fmod_zero(it - PURE_NEWTON_STEPS - 1, DAMPED_TANGENT_INTERVAL):
+                    prob.assemble_tangent(self.p.probe_length)
+                    T.apply_kinematic_bc(prob.fixed_rows)
+                    T.scale(-1.0)
+                    if damped:
+                        T.damp(q.damped_newton_scale, q.damped_newton_shift)
+                    self.linear.set_matrix(T)
+                result = self.linear.solve(r)
+                if not result.converged and self.heuristics:
+                    log.info("%s: linear solve failed (%s); switching to damped Newton", self.section, result.message)
+                    if not damped:
+                        T.damp(q.damped_newton_scale, q.damped_newton_shift)
+                        self.linear.set_matrix(T)
+                    damped = True
+                    result = self.linear.solve(r)
+                ok = result.converged
+                if ok:
+                    lhs = prob.to_local(result.x)
+                else:
+                    log.error("%s: load step %d: the linear solver failed: %s", self.section, step, result.message)
+            if not ok:
+                res = 1.0e50
+                break
+            lhs[prob.fixed_local] = 0.0
+            lhs_rows = prob.to_rows(lhs)
+            alpha = self.line_search(r, lhs_rows, lhs) if self.heuristics else 1.0
+            self.du[: self.n] += alpha * lhs
+            res, r = self.trial_residual(self.du)
+            history.append(res)
+            it += 1
+        return res, tol, it
+
+    # -- the solver -----------------------------------------------------------------------------
+    def run(self) -> None:
+        sim, p, q = self.sim, self.p, self.q
+        wall0 = _time.perf_counter()
+        times = load_times(p, q, path=(self.section, "QuasiStatic"), file=sim.deck.file)
+        n = self.n
+        predictor = self.v[:n].copy() if p.initialize_predictor else np.zeros((n, 3))
+        self.v[:] = 0.0
+        t_cur = t_prev = times[0]
+        sim.time_prev = sim.time = t_cur
+        sim.apply_kinematic(t_cur, t_prev)
+        sim.apply_body_forces(t_cur)
+        sim.write_output(t_cur)
+        log.info("%s: QuasiStatic, %d load steps from t = %.6g to %.6g, %d unknowns, tangent %d nonzeros",
+                 self.section, len(times) - 1, times[0], times[-1], 3 * sim.num_global, self.problem.tangent.nnz)
+
+        adaptive = q.adaptive
+        t_final = times[-1]
+        failed_this_step = 0
+        total_failures = 0
+        convergence_failed_in_step = False
+        retry = False
+        failed_qs = False
+        completed = 0
+        saved_delta_u = sim.delta_u
+        sim.delta_u = self.du
+        try:
+            step = 1
+            while step < len(times):
+                if adaptive is None or not retry:
+                    t_prev = t_cur
+                retry = False
+                t_cur = times[step]
+                self.dt = t_cur - t_prev
+                sim.time_prev, sim.time = t_prev, t_cur
+                self.du[:] = 0.0
+                sim.apply_kinematic(t_cur, t_prev)
+                sim.apply_body_forces(t_cur)
+                self.set_trial(self.du)
+                res, tol, it = self.newton(step, predictor, p.initialize_predictor)
+                if res > tol:
+                    if res < 100.0 * tol:
+                        log.warning("%s: load step %d (t = %.6g): accepting residual %.4g, above the tolerance %.4g", self.section, step, t_cur, res, tol)
+                    elif adaptive is not None:
+                        failed_this_step += 1
+                        total_failures += 1
+                        if total_failures > adaptive.max_total_reductions or failed_this_step > adaptive.max_reductions_in_step:
+                            failed_qs = True
+                            if adaptive.switch_to_verlet is None:
+                                log.error("%s: load step %d (t = %.6g) did not converge and no more load step reductions are allowed; stopping this solver", self.section, step, t_cur)
+                            break
+                        log.warning("%s: load step %d (t = %.6g) did not converge (residual %.4g, tolerance %.4g): halving it", self.section, step, t_cur, res, tol)
+                        retry = True
+                        convergence_failed_in_step = True
+                    else:
+                        log.error(
+                            "%s: load step %d (t = %.6g) did not converge in %d iterations (residual %.4g, tolerance %.4g); the remaining load steps are skipped",
+                            self.section, step, t_cur, it - 1, res, tol,
+                        )
+                        failed_qs = True
+                        break
+                if adaptive is not None and retry:
+                    times.insert(step, t_prev + self.dt / 2.0)
+                    if adaptive.adaptive_output_frequency:
+                        for w in sim.outputs.writers:
+                            if w.frequency > 0:
+                                w.frequency = int(w.frequency * 2.0)
+                    continue  # same index, now the shorter step
+                if adaptive is not None and adaptive.reduce_all_remaining and convergence_failed_in_step:
+                    del times[step + 1 :]
+                    i = 0
+                    while times[step + i] < t_final:
+                        times.append(t_cur + (i + 1) * self.dt)
+                        i += 1
+                if it >= q.maximum_solver_iterations and q.maximum_solver_iterations > 0:
+                    log.info("%s: load step %d used the maximum number of nonlinear iterations", self.section, step)
+                convergence_failed_in_step = False
+                failed_this_step = 0
+                self.u[:n] += self.du[:n]
+                predictor = self.v[:n].copy()
+                sim.write_output(t_cur)
+                sim.advance()
+                completed += 1
+                step += 1
+        finally:
+            sim.delta_u = saved_delta_u
+        lin = self.linear
+        solver_stats(
+            sim, self.section, "QuasiStatic", completed, _time.perf_counter() - wall0, self.problem,
+            linear_solver=lin._chosen or lin.method, linear_solve_time=lin.solve_time, linear_setup_time=lin.setup_time,
+            linear_iterations=lin.iterations, linear_solves=lin.solves, converged=not failed_qs, residuals=self.residuals,
+        )
+        if failed_qs and adaptive is not None and adaptive.switch_to_verlet is not None:
+            self.switch_to_verlet(t_prev, t_final, predictor)
+
+    def switch_to_verlet(self, t_start: float, t_final: float, predictor: np.ndarray) -> None:
+        from .verlet import Verlet, VerletSection
+
+        sim = self.sim
+        sw = self.q.adaptive.switch_to_verlet
+        log.warning("%s: too many load step reductions; continuing with explicit dynamics (Verlet) from t = %.6g", self.section, t_start)
+        verlet = {"Fixed dt": sw.fixed_dt} if sw.fixed_dt is not None else {"Safety Factor": sw.safety_factor if sw.safety_factor is not None else 1.0}
+        params = VerletSection.model_validate({"Initial Time": t_start, "Final Time": t_final, "Verlet": verlet})
+        if sw.output_frequency is not None:
+            for w in sim.outputs.writers:
+                w.frequency = sw.output_frequency
+        n = self.n
+        np.add(self.x, self.u, out=self.y)
+        self.v[:n] = predictor
+        Verlet(params, section=f"{self.section} > Switch to Verlet").run(sim)

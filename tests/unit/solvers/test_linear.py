@@ -1,0 +1,80 @@
+"""Linear solvers on a real tangent system: Peridigm's CG, sparse direct, AMG-preconditioned CG
+and AztecOO-style GMRES must agree; CG reproduces the textbook recursion and its failure modes.
+
+Tolerances: each iterative solver is run to a relative residual tol; for the SPD system
+A = -K (cond(A) ~ 1e2..1e3 here) the error of the solution is at most cond(A) * tol relative to
+the exact (direct, ~1e-15 cond) solution, so CG at 1e-10 is compared at 1e-6 and AMG at 1e-8
+also at 1e-6."""
+import numpy as np
+import pytest
+
+from peridyn.solvers.linear import LinearSolver, aztec_gmres, belos_cg, seq_dot, seq_norm2
+from peridyn.solvers.tangent import TangentMatrix
+
+
+@pytest.fixture
+def system(h):
+    sim = h.build(h.box_deck(h.LPS, shape=(5, 4, 4)))
+    h.perturb(sim, scale=1e-4)
+    sim.evaluate_forces()
+    T = TangentMatrix(sim)
+    T.assemble()
+    fixed = np.zeros((T.n, 3), dtype=bool)
+    x = sim.fields["Model_Coordinates"][T.local_of_row]
+    fixed[x[:, 0] < 1.0] = True  # clamp one face: A is then positive definite
+    T.apply_kinematic_bc(fixed)
+    T.scale(-1.0)
+    rng = np.random.default_rng(7)
+    b = rng.standard_normal(3 * T.n)
+    b[fixed.reshape(-1)] = 0.0
+    return T, b, x
+
+
+def test_sequential_reductions():
+    a = np.array([1e16, 1.0, -1e16, 1.0])
+    assert seq_dot(a, np.ones(4)) == ((1e16 + 1.0) - 1e16) + 1.0  # left to right, no pairwise sum
+    np.testing.assert_allclose(seq_norm2(np.array([3.0, 4.0])), 5.0, rtol=1e-15)
+
+
+def test_direct_cg_amg_gmres_agree(system):
+    T, b, x = system
+    direct = LinearSolver("Direct")
+    direct.set_matrix(T)
+    xd = direct.solve(b).x
+    A = T.to_scipy().toarray()
+    np.testing.assert_allclose(A @ xd, b, rtol=0, atol=1e-10 * np.abs(b).max())
+    cg = belos_cg(T.matvec, b, 1e-10, 10 * len(b))
+    assert cg.converged
+    amg = LinearSolver("AMG", tol=1e-8, coords=x)
+    amg.set_matrix(T)
+    ra = amg.solve(b)
+    assert ra.converged
+    gm = aztec_gmres(T.matvec, b, None, 1e-10, 300, 400)
+    assert gm.converged
+    scale = np.abs(xd).max()
+    for sol in (cg.x, ra.x, gm.x):
+        np.testing.assert_allclose(sol, xd, rtol=0, atol=1e-6 * scale)
+
+
+def test_belos_cg_stops_at_the_relative_tolerance_of_the_recursive_residual(system):
+    T, b, _ = system
+    res = belos_cg(T.matvec, b, 1e-4, 10 * len(b))
+    assert res.converged and res.iterations > 1
+    r = b - T.matvec(res.x)
+    # the recursive residual is below 1e-4; the true one agrees with it to round-off
+    assert np.linalg.norm(r) <= 1.0001e-4 * np.linalg.norm(b)
+    fewer = belos_cg(T.matvec, b, 1e-4, res.iterations - 1)
+    assert not fewer.converged and "iterations" in fewer.message
+
+
+def test_belos_cg_refuses_an_indefinite_matrix():
+    A = np.diag([1.0, -1.0])
+    res = belos_cg(lambda p, out: np.copyto(out, A @ p), np.array([0.0, 1.0]), 1e-8, 10)
+    assert not res.converged and "positive" in res.message
+
+
+def test_auto_picks_direct_for_small_systems(system):
+    T, b, _ = system
+    s = LinearSolver("Auto")
+    s.set_matrix(T)
+    assert s._chosen == "Direct"
