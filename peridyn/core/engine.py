@@ -589,16 +589,17 @@ class Simulation:
         """Peridigm's evalModel: damage, precompute, force. Returns Force_Density (n, 3)."""
         parallel = self.comm.size > 1
         if parallel:
-            self.exchange_halo_fields()
+            self.halo.exchange(self.fields["Coordinates"])
+            if "Temperature_Change" in self.fields:
+                self.halo.exchange(self.fields["Temperature_Change"])
         for blk in self.blocks:
             if blk.damage is not None:
                 blk.damage.update(blk.view)
         for blk in self.blocks:
             blk.material.precompute(blk.view)
         if parallel:
-            for name, spec in self.fields.specs.items():
-                if spec.halo and spec.is_point:
-                    self.halo.exchange(self.fields[name])
+            for name in dict.fromkeys(n for blk in self.blocks for n in blk.material.precompute_fields):
+                self.halo.exchange(self.fields[name])
         f = self.fields["Force_Density"]
         pending = []
         for blk in self.blocks:

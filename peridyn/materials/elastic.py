@@ -245,6 +245,7 @@ class Elastic(Material):
 
     name = "Elastic"
     Params = ElasticParams
+    precompute_fields = ("Dilatation",)
 
     def __init__(self, params: ElasticParams, *, horizon: float | None, options=None) -> None:
         super().__init__(params, horizon=horizon, options=options)
