@@ -32,8 +32,12 @@ def critical_stretch_kernel(start, stop, offsets, neighbors, zeta, y, s_c, d_n, 
         lo = offsets[i]
         hi = offsets[i + 1]
         for b in range(lo, hi):
-            j = neighbors[b]
             d = float(d_n[b]) if copy_previous else float(d_np1[b])
+            if d >= 1.0:  # broken for good: nothing to compute
+                d_np1[b] = d
+                acc += d
+                continue
+            j = neighbors[b]
             L0 = zeta[b]
             c0 = y[i, 0] - y[j, 0]
             c1 = y[i, 1] - y[j, 1]
