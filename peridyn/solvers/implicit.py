@@ -89,7 +89,7 @@ class Implicit(Solver):
         p = self.params
         ip = p.implicit
         wall0 = _time.perf_counter()
-        prob = ImplicitProblem(sim, "full")
+        prob = ImplicitProblem(sim, "full", section=self.section)
         T = prob.tangent
         n = sim.num_owned
         f = sim.fields

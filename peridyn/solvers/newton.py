@@ -66,7 +66,17 @@ class ImplicitProblem:
     """The equilibrium problem of a model: residual r = (f + b) V (force units, zero on
     prescribed dofs), its norms, the reactions and the tangent, all in row order."""
 
-    def __init__(self, sim, tangent_kind: str = "full") -> None:
+    def __init__(self, sim, tangent_kind: str = "full", *, section: str = "Solver") -> None:
+        if sim.comm.size > 1:
+            # the tangent's rows, the Krylov solvers and the residual all reduce through
+            # sim.comm already; what is missing is the distributed matrix (ghost columns and
+            # rows of other ranks' points) and the halo exchange inside matrix products
+            raise InputError(
+                "the implicit solvers (QuasiStatic, NOXQuasiStatic, Implicit) run on one process for now",
+                file=sim.deck.file,
+                path=(section,),
+                fix="run this deck without mpiexec",
+            )
         self.sim = sim
         n = sim.num_owned
         self.n = n

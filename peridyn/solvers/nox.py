@@ -218,7 +218,7 @@ class NOXRun:
         self.q = solver.params.nox
         self.section = solver.section
         kind = "block diagonal" if self.p.block_tangent else "full"
-        self.problem = ImplicitProblem(sim, kind)
+        self.problem = ImplicitProblem(sim, kind, section=solver.section)
         self.n = sim.num_owned
         f = sim.fields
         self.x, self.u, self.y, self.v = f["Model_Coordinates"], f["Displacement"], f["Coordinates"], f["Velocity"]

@@ -144,7 +144,7 @@ class QuasiStaticRun:
         self.p = solver.params
         self.q = solver.params.quasi_static
         self.section = solver.section
-        self.problem = ImplicitProblem(sim, "full")
+        self.problem = ImplicitProblem(sim, "full", section=solver.section)
         n = sim.num_owned
         self.n = n
         f = sim.fields

@@ -197,3 +197,55 @@ def test_switch_to_verlet_after_too_many_reductions(h):
     assert methods == ["QuasiStatic", "Verlet"]
     assert sim.stats["solvers"][1]["steps"] == 20
     assert sim.time == pytest.approx(2.0e-6)
+
+
+NEWTON_MF = {"Method": "Newton", "Newton": {"Linear Solver": {"Jacobian Operator": "Matrix-Free", "Preconditioner": "None"}}}
+
+
+@pytest.mark.parametrize(
+    "preconditioner, direction, line_search",
+    [
+        (None, {"Method": "Newton"}, "Polynomial"),
+        ("None", NEWTON_MF, "Polynomial"),
+        ("Block 3x3", {"Method": "Newton", "Newton": {"Linear Solver": {"Jacobian Operator": "Matrix-Free", "Preconditioner": "User Defined"}}}, "Full Step"),
+        (
+            None,
+            {"Method": "NonlinearCG", "Nonlinear CG": {"Precondition": "On", "Restart Frequency": 15, "Linear Solver": {"Preconditioner": "AztecOO", "Aztec Preconditioner": "Jacobi", "AztecOO Preconditioner Iterations": 15}}},
+            "NonlinearCG",
+        ),
+    ],
+)
+def test_nox_variants_reach_the_quasistatic_equilibrium(h, preconditioner, direction, line_search):
+    """Newton with the tangent, Jacobian-free Newton-Krylov (with or without Peridigm's block
+    preconditioner) and preconditioned nonlinear CG all converge to QuasiStatic's equilibrium
+    (both at 1e-10 of the reactions: displacements agree to ~1e-9 of the largest)."""
+    nox = {"Number of Load Steps": 2, "Relative Tolerance": 1e-10, "Max Solver Iterations": 100, "Direction": direction, "Line Search": {"Method": line_search}}
+    solver = {"Initial Time": 0.0, "Final Time": 1.0, "NOXQuasiStatic": nox}
+    if preconditioner is not None:
+        solver["Peridigm Preconditioner"] = preconditioner
+    sim = h.build(bar_deck(h, solver))
+    run(sim)
+    ref = h.build(bar_deck(h, QS))
+    run(ref)
+    u, u_ref = sim.fields["Displacement"], ref.fields["Displacement"]
+    np.testing.assert_allclose(u, u_ref, rtol=0, atol=1e-7 * np.abs(u_ref).max())
+    np.testing.assert_allclose(sim.fields["Velocity"], ref.fields["Velocity"], rtol=0, atol=1e-7 * np.abs(ref.fields["Velocity"]).max())
+    assert sim.nonlinear_iterations >= 2
+
+
+def test_nox_counts_one_step_when_the_initial_guess_has_converged(h):
+    """Each NOX solver step counts one Nonlinear_Solver_Iterations, the first one also when it
+    only finds the initial guess converged (here: nothing moves, F = 0)."""
+    solver = {"Initial Time": 0.0, "Final Time": 1.0, "NOXQuasiStatic": {"Number of Load Steps": 3, "Absolute Tolerance": 1.0, "Direction": {"Method": "Newton"}}}
+    sim = h.build(bar_deck(h, solver, pull=0.0))
+    run(sim)
+    assert sim.nonlinear_iterations == 3
+
+
+def test_nox_failure_stops_the_run(h):
+    from peridyn.solvers.nox import NOXConvergenceError
+
+    solver = {"Initial Time": 0.0, "Final Time": 1.0, "NOXQuasiStatic": {"Number of Load Steps": 1, "Absolute Tolerance": 1e-30, "Max Solver Iterations": 2, "Direction": {"Method": "Newton"}}}
+    sim = h.build(bar_deck(h, solver))
+    with pytest.raises(NOXConvergenceError, match="did not converge in 2 NOX steps"):
+        run(sim)
