@@ -42,10 +42,24 @@ def critical_stretch_kernel(start, stop, offsets, neighbors, zeta, y, s_c, d_n, 
             c0 = y[i, 0] - y[j, 0]
             c1 = y[i, 1] - y[j, 1]
             c2 = y[i, 2] - y[j, 2]
-            L = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
-            if thermal:
-                L -= (alpha_T * dT[i]) * L0
-            trial = 1.0 if (L - L0) / L0 > s_c else 0.0
+            L2 = c0 * c0 + c1 * c1 + c2 * c2
+            decided = False
+            trial = 0.0
+            if not thermal and s_c > -1.0:
+                # compare squared lengths first: away from the threshold (by far more than
+                # round-off) the answer is certain without a square root and a division
+                limit = L0 * (1.0 + s_c)
+                limit2 = limit * limit
+                if L2 < limit2 * (1.0 - 1e-10):
+                    decided = True
+                elif L2 > limit2 * (1.0 + 1e-10):
+                    trial = 1.0
+                    decided = True
+            if not decided:
+                L = math.sqrt(L2)
+                if thermal:
+                    L -= (alpha_T * dT[i]) * L0
+                trial = 1.0 if (L - L0) / L0 > s_c else 0.0
             d = trial if trial > d else d
             d_np1[b] = d
             acc += d
