@@ -21,6 +21,7 @@ from typing import Any
 from pydantic import Field
 
 from ..errors import InputError, raise_collected
+from ..io.deckfile import SECTION_NAMES
 from ..plugins.manager import Registry, get_registry
 from .params import ModelParams
 from .validation import validate_params
@@ -30,18 +31,8 @@ log = logging.getLogger("peridyn.deck")
 #: solver methods in the order Peridigm checks them inside a solver section
 SOLVER_METHOD_ORDER = ("Verlet", "QuasiStatic", "NOXQuasiStatic", "Implicit", "ImplicitDiffusion")
 
-KNOWN_SECTIONS = (
-    "Discretization",
-    "Materials",
-    "Damage Models",
-    "Blocks",
-    "Boundary Conditions",
-    "Compute Class Parameters",
-    "Data Loader",
-    "Contact",
-    "Restart",
-    "Multiphysics",
-)
+#: top-level sections (besides names containing Solver or Output), as the file reader knows them
+KNOWN_SECTIONS = tuple(sorted(SECTION_NAMES))
 #: top-level keys Peridigm reads that change nothing here; accepted with a warning
 IGNORED_TOP_LEVEL = {
     "Verbose": "verbosity is set with --verbose/--quiet",
