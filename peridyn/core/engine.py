@@ -45,6 +45,7 @@ class Block:
     start: int = 0
     stop: int = 0
     fused: bool = False
+    damage_adopted: bool = False  #: the material applies the damage model's rule in its own loop
     view: BlockView | None = None
     path: tuple[str, ...] = ()
 
@@ -371,6 +372,7 @@ class Simulation:
                     )
                 )
             blk = Block(k, name, bid, entry.material, material, damage, horizon, entry.horizon, path=entry.path)
+            blk.damage_adopted = bool(damage is not None and material.adopt_damage(damage))
             blk.start, blk.stop = int(self.block_ranges[k]), int(self.block_ranges[k + 1])
             self.blocks.append(blk)
         raise_collected(errors)
@@ -593,10 +595,13 @@ class Simulation:
             if "Temperature_Change" in self.fields:
                 self.halo.exchange(self.fields["Temperature_Change"])
         for blk in self.blocks:
-            if blk.damage is not None:
+            if blk.damage is not None and not blk.damage_adopted:
                 blk.damage.update(blk.view)
         for blk in self.blocks:
-            blk.material.precompute(blk.view)
+            if blk.damage_adopted:
+                blk.material.precompute_with_damage(blk.view)
+            else:
+                blk.material.precompute(blk.view)
         if parallel:
             for name in dict.fromkeys(n for blk in self.blocks for n in blk.material.precompute_fields):
                 self.halo.exchange(self.fields[name])

@@ -138,6 +138,16 @@ class Material(ABC):
     def precompute(self, block: BlockView) -> None:
         """Per-point quantities needed by both ends of a bond (e.g. dilatation)."""
 
+    def adopt_damage(self, damage: "DamageModel") -> bool:
+        """Offered the block's damage model at set-up: return True to apply its bond rule in
+        ``precompute_with_damage`` (the engine then calls that instead of ``damage.update``
+        followed by ``precompute``: one bond loop instead of two). Default: no."""
+        return False
+
+    def precompute_with_damage(self, block: BlockView) -> None:
+        """The adopted damage model's update and ``precompute`` in one pass (see adopt_damage)."""
+        raise NotImplementedError
+
     @abstractmethod
     def force_state(self, block: BlockView, t: np.ndarray) -> None:
         """Write the force state of every bond of the block's points into ``t`` (shape
@@ -203,6 +213,12 @@ class DamageModel(ABC):
 
     def initialize(self, block: BlockView) -> None:
         """Once, before the first force evaluation."""
+
+    def bond_rule(self) -> tuple | None:
+        """A description of the bond-breaking rule that a material may apply inside its own
+        bond loop instead of calling ``update`` (e.g. ``("critical stretch", s_c, copy)``),
+        or None. Materials that do not know the rule ignore it."""
+        return None
 
     def begin_step(self, block: BlockView, time: float) -> None:
         """At the start of every explicit step (Peridigm re-creates damage models there)."""

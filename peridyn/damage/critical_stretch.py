@@ -14,6 +14,7 @@ import numpy as np
 from numba import njit, prange
 from pydantic import Field
 
+from ..core.bondmath import stretch_exceeds
 from ..core.fields import FieldSpec, Relation, Temporal
 from ..core.interfaces import BlockView, DamageModel
 from ..core.params import ModelParams
@@ -43,23 +44,11 @@ def critical_stretch_kernel(start, stop, offsets, neighbors, zeta, y, s_c, d_n, 
             c1 = y[i, 1] - y[j, 1]
             c2 = y[i, 2] - y[j, 2]
             L2 = c0 * c0 + c1 * c1 + c2 * c2
-            decided = False
-            trial = 0.0
-            if not thermal and s_c > -1.0:
-                # compare squared lengths first: away from the threshold (by far more than
-                # round-off) the answer is certain without a square root and a division
-                limit = L0 * (1.0 + s_c)
-                limit2 = limit * limit
-                if L2 < limit2 * (1.0 - 1e-10):
-                    decided = True
-                elif L2 > limit2 * (1.0 + 1e-10):
-                    trial = 1.0
-                    decided = True
-            if not decided:
-                L = math.sqrt(L2)
-                if thermal:
-                    L -= (alpha_T * dT[i]) * L0
+            if thermal:
+                L = math.sqrt(L2) - (alpha_T * dT[i]) * L0
                 trial = 1.0 if (L - L0) / L0 > s_c else 0.0
+            else:
+                trial = 1.0 if stretch_exceeds(L2, L0, s_c) else 0.0
             d = trial if trial > d else d
             d_np1[b] = d
             acc += d
@@ -90,6 +79,13 @@ class CriticalStretch(DamageModel):
         # the stretch of i->j and j->i is computed from bitwise equal lengths; only the
         # owner's temperature change can differ
         return self.alpha_T is None
+
+    def bond_rule(self):
+        """("critical stretch", s_c, copy N into NP1): lets a material apply this model inside
+        its own bond loop (one pass instead of two); None where it cannot (thermal strain)."""
+        if self.alpha_T is not None:
+            return None
+        return ("critical stretch", self.s_c, self.copy_previous)
 
     def fields(self) -> list[FieldSpec]:
         specs = super().fields()

@@ -22,6 +22,7 @@ import numpy as np
 from numba import njit, prange
 from pydantic import Field
 
+from ..core.bondmath import stretch_exceeds
 from ..core.fields import FieldSpec, Relation, Temporal
 from ..core.influence import omega
 from ..core.interfaces import BlockView, Material
@@ -93,6 +94,43 @@ def dilatation_kernel(start, stop, offsets, neighbors, zeta, y, volume, m, omega
             keep = 1.0 - bond_damage[b] if has_damage else 1.0
             acc += ((((3.0 * w) * keep) * z) * e) * volume[j]
         theta[i] = acc / m[i]
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def dilatation_stretch_damage_kernel(start, stop, offsets, neighbors, zeta, y, volume, m, omega_kind, delta, omega_table, s_c, d_n, d_np1, copy_previous, damage, theta):
+    """Critical-stretch damage and the dilatation in one bond loop (each deformed bond length
+    computed once): d = max(d, s > s_c) from N (``copy_previous``) or NP1, point damage = broken
+    bonds / bonds, then theta_i with the updated damage. Same results as the damage model's
+    kernel followed by ``dilatation_kernel``."""
+    for i in prange(start, stop):
+        acc = 0.0
+        broken = 0.0
+        lo = offsets[i]
+        hi = offsets[i + 1]
+        yi0 = y[i, 0]
+        yi1 = y[i, 1]
+        yi2 = y[i, 2]
+        for b in range(lo, hi):
+            d = float(d_n[b]) if copy_previous else float(d_np1[b])
+            if d >= 1.0:  # broken for good: no force, nothing to compute
+                d_np1[b] = d
+                broken += d
+                continue
+            j = neighbors[b]
+            z = zeta[b]
+            ex = y[j, 0] - yi0
+            ey = y[j, 1] - yi1
+            ez = y[j, 2] - yi2
+            L2 = ex * ex + ey * ey + ez * ez
+            if stretch_exceeds(L2, z, s_c):
+                d = 1.0
+            d_np1[b] = d
+            broken += d
+            if d < 1.0:
+                w = omega(omega_kind, z, delta, omega_table, b)
+                acc += ((((3.0 * w) * (1.0 - d)) * z) * (math.sqrt(L2) - z)) * volume[j]
+        damage[i] = broken / (hi - lo) if hi > lo else 0.0
+        theta[i] = acc / m[i] if m[i] != 0.0 else 0.0
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
@@ -254,6 +292,7 @@ class Elastic(Material):
         self.omega_table = EMPTY
         self._a: np.ndarray | None = None
         self._c: np.ndarray | None = None
+        self._damage_model = None  # a damage model whose rule precompute applies itself
 
     @property
     def density(self) -> float:
@@ -295,6 +334,22 @@ class Elastic(Material):
             self.omega_table = block.influence.table_for(nl.offsets, nl.neighbors, s["Model_Coordinates"], np.arange(block.start, block.stop), block.horizon)
         kind, delta, table = self._common(block)
         weighted_volume_kernel(block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Volume"], kind, delta, table, s["Weighted_Volume"])
+
+    def adopt_damage(self, damage) -> bool:
+        rule = damage.bond_rule()
+        if rule is None or rule[0] != "critical stretch" or self.thermal:
+            return False
+        self._damage_model = damage
+        return True
+
+    def precompute_with_damage(self, block: BlockView) -> None:
+        s, nl = block.fields, block.bonds
+        kind, delta, table = self._common(block)
+        _, s_c, copy_previous = self._damage_model.bond_rule()
+        dilatation_stretch_damage_kernel(
+            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], s["Volume"], s["Weighted_Volume"],
+            kind, delta, table, s_c, s.n("Bond_Damage"), s["Bond_Damage"], copy_previous, s["Damage"], s["Dilatation"],
+        )
 
     def precompute(self, block: BlockView) -> None:
         s, nl = block.fields, block.bonds
