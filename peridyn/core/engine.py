@@ -361,7 +361,11 @@ class Simulation:
             damage = None
             if entry.damage_model is not None:
                 dentry = deck.damage_models[entry.damage_model]
-                damage = dentry.cls(dentry.params, options={"deck_dir": deck.directory, "path": dentry.path})
+                try:
+                    damage = dentry.cls(dentry.params, options={"deck_dir": deck.directory, "path": dentry.path})
+                except (ValueError, InputError) as exc:
+                    errors.append(exc if isinstance(exc, InputError) else InputError(str(exc), file=deck.file, path=dentry.path))
+                    continue
             if horizon is None and getattr(material, "requires_constant_horizon", True) and self.influence.kind != 0:
                 errors.append(
                     InputError(

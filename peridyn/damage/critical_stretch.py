@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 from numba import njit, prange
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from ..core.bondmath import stretch_exceeds
 from ..core.fields import FieldSpec, Relation, Temporal
@@ -112,6 +112,14 @@ class TimeDependentCriticalStretchParams(ModelParams):
     time_dependent_critical_stretch: str | float = Field(
         alias="Time Dependent Critical Stretch", description="critical stretch as an expression of t (time)"
     )
+
+    @field_validator("time_dependent_critical_stretch")
+    @classmethod
+    def _compiles(cls, v):
+        from ..core.expressions import compile_expression
+
+        compile_expression(repr(v) if isinstance(v, float) else v, ("t",))  # ExpressionError is a ValueError
+        return v
     thermal_expansion_coefficient: float | None = Field(None, alias="Thermal Expansion Coefficient", description="as for Critical Stretch")
 
 
