@@ -105,6 +105,14 @@ class MPIComm:
     def allgather(self, value):
         return self.comm.allgather(value)
 
+    def gather(self, value):
+        """Every rank's ``value`` (any picklable object) in rank order on rank 0, None elsewhere."""
+        return self.comm.gather(value, root=0)
+
+    def alltoall(self, values: list) -> list:
+        """``values[r]`` (picklable) goes to rank r; returns what each rank sent here, by rank."""
+        return self.comm.alltoall(values)
+
     def bcast(self, value):
         return self.comm.bcast(value, root=0)
 

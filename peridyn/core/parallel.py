@@ -75,6 +75,14 @@ class SerialComm:
     def allgather(self, value: Any) -> list:
         return [value]
 
+    def gather(self, value: Any) -> list | None:
+        """Every rank's ``value`` in rank order on the root rank (None elsewhere)."""
+        return [value]
+
+    def alltoall(self, values: list) -> list:
+        """``values[r]`` goes to rank r; returns what every rank sent to this one, by rank."""
+        return list(values)
+
     def make_halo(self, *args) -> NullHalo:
         return NullHalo()
 
