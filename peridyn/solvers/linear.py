@@ -22,6 +22,22 @@
   of iterations and a direct factorization too much memory.
 * ``"Auto"``: ``Direct`` up to 3000 unknowns, ``AMG`` above.
 
+Under MPI (the TangentMatrix of a run on several ranks, see :mod:`peridyn.solvers.tangent`) every
+vector holds the owned rows of its rank, products exchange ghost values through the engine's
+halo, and every dot product and norm is the rank's sequential sum reduced with
+``comm.allreduce_sum`` (the reduction order differs from the serial one: round-off only):
+
+* ``"Belos"``: the same CG (or GMRES) recursion, distributed.
+* ``"Direct"``: the matrix and the right-hand side are gathered to rank 0, which factors and
+  solves; the solution is broadcast back. Meant for small systems (rank 0 holds everything).
+* ``"AMG"``: distributed conjugate gradients (GMRES when unsymmetric) preconditioned by
+  block-Jacobi with one smoothed-aggregation AMG hierarchy per rank, built on the rank's
+  owned-by-owned block of the assembled matrix (:meth:`TangentMatrix.owned_block`).
+* ``"Auto"``: as serially, by the global number of unknowns.
+
+The functions below take ``comm`` (None or a one-process communicator: the serial arithmetic,
+unchanged).
+
 Measured on Peridigm's bar_qs_lps deck (12,000 unknowns, 17.1 M nonzeros, horizon 3 spacings;
 benchmarks/quasistatic.py): the peridynamic tangent is well conditioned at this size (CG reaches
 1e-8 in ~45 iterations), so Peridigm's plain CG is the fastest there; a sparse LU fills in
@@ -94,6 +110,29 @@ def cg_direction_kernel(p, r, beta):
         p[k] = r[k] + beta * p[k]
 
 
+def is_parallel(comm) -> bool:
+    return comm is not None and comm.size > 1
+
+
+def gsum(comm, value):
+    """``value`` summed over ranks (a scalar or an array); itself on one process."""
+    return comm.allreduce_sum(value) if is_parallel(comm) else value
+
+
+def gdot(comm, a: np.ndarray, b: np.ndarray) -> float:
+    """a . b of distributed vectors (numpy's dot on one process)."""
+    if is_parallel(comm):
+        return comm.allreduce_sum(float(np.dot(a, b)))
+    return np.dot(a, b)
+
+
+def gnorm(comm, a: np.ndarray) -> float:
+    """||a||_2 of a distributed vector (numpy's norm on one process)."""
+    if is_parallel(comm):
+        return math.sqrt(comm.allreduce_sum(float(np.dot(a, a))))
+    return np.linalg.norm(a)
+
+
 # ------------------------------------------------------------------------------------------------
 @dataclass
 class SolveResult:
@@ -103,19 +142,20 @@ class SolveResult:
     message: str = ""
 
 
-def belos_cg(matvec, b: np.ndarray, tol: float, maxiter: int) -> SolveResult:
+def belos_cg(matvec, b: np.ndarray, tol: float, maxiter: int, comm=None) -> SolveResult:
     """Belos BlockCG with block size 1, as Peridigm configures it (no preconditioner), from
     x = 0: stops as converged when ||r||/||b|| <= tol (r the recursively updated residual,
     checked before every iteration), as not converged after ``maxiter`` iterations or when
-    p.Ap is not positive (Belos throws; Peridigm treats it as a failed solve)."""
+    p.Ap is not positive (Belos throws; Peridigm treats it as a failed solve). ``comm``: the
+    communicator of distributed vectors (dot products reduced over ranks)."""
     n = b.shape[0]
     x = np.zeros(n)
     r = b.copy()
-    rho0 = seq_norm2(b)
+    rho0 = math.sqrt(gsum(comm, seq_dot(b, b))) if is_parallel(comm) else seq_norm2(b)
     if rho0 == 0.0:
         return SolveResult(x, True, 0)
     p = r.copy()
-    rz = seq_dot(r, r)
+    rz = gsum(comm, seq_dot(r, r))
     Ap = np.empty(n)
     it = 0
     rnorm = rho0
@@ -126,23 +166,25 @@ def belos_cg(matvec, b: np.ndarray, tol: float, maxiter: int) -> SolveResult:
             return SolveResult(x, False, it, f"CG reached {maxiter} iterations (relative residual {rnorm / rho0:.3g})")
         it += 1
         matvec(p, Ap)
-        pAp = seq_dot(p, Ap)
+        pAp = gsum(comm, seq_dot(p, Ap))
         alpha = rz / pAp
         if not alpha > 0.0:
             return SolveResult(x, False, it, "CG met a non-positive curvature p.Ap (the matrix is not positive definite)")
         rz_old = rz
-        rz = cg_update_kernel(x, r, p, Ap, alpha)
+        rz = gsum(comm, cg_update_kernel(x, r, p, Ap, alpha))
         rnorm = math.sqrt(rz)
         beta = rz / rz_old
         cg_direction_kernel(p, r, beta)
 
 
-def gmres(matvec, b: np.ndarray, tol: float, restart: int, max_restarts: int, precond=None, x0=None) -> SolveResult:
+def gmres(matvec, b: np.ndarray, tol: float, restart: int, max_restarts: int, precond=None, x0=None, comm=None) -> SolveResult:
     """Restarted GMRES (modified Gram-Schmidt, Givens rotations), right-preconditioned by
-    ``precond`` (a function v -> M^-1 v) when given; stops when ||b - A x|| <= tol ||b||."""
+    ``precond`` (a function v -> M^-1 v) when given; stops when ||b - A x|| <= tol ||b||.
+    ``comm``: the communicator of distributed vectors."""
     n = b.shape[0]
+    ntot = int(gsum(comm, n))
     x = np.zeros(n) if x0 is None else x0.copy()
-    bnorm = float(np.linalg.norm(b))
+    bnorm = float(gnorm(comm, b))
     if bnorm == 0.0:
         return SolveResult(np.zeros(n), True, 0)
     total = 0
@@ -150,10 +192,10 @@ def gmres(matvec, b: np.ndarray, tol: float, restart: int, max_restarts: int, pr
     for cycle in range(max_restarts + 1):
         matvec(x, Av)
         r = b - Av
-        beta = float(np.linalg.norm(r))
+        beta = float(gnorm(comm, r))
         if beta <= tol * bnorm:
             return SolveResult(x, True, total)
-        m = min(restart, n)
+        m = min(restart, ntot)
         V = np.zeros((m + 1, n))
         Z = np.zeros((m, n)) if precond is not None else None
         H = np.zeros((m + 1, m))
@@ -170,9 +212,9 @@ def gmres(matvec, b: np.ndarray, tol: float, restart: int, max_restarts: int, pr
             matvec(z, Av)
             w = Av.copy()
             for i in range(k + 1):
-                H[i, k] = float(np.dot(V[i], w))
+                H[i, k] = float(gdot(comm, V[i], w))
                 w -= H[i, k] * V[i]
-            H[k + 1, k] = float(np.linalg.norm(w))
+            H[k + 1, k] = float(gnorm(comm, w))
             if H[k + 1, k] > 0.0:
                 V[k + 1] = w / H[k + 1, k]
             for i in range(k):
@@ -194,8 +236,42 @@ def gmres(matvec, b: np.ndarray, tol: float, restart: int, max_restarts: int, pr
         basis = Z if Z is not None else V
         x = x + yk @ basis[:k_done]
     matvec(x, Av)
-    rel = float(np.linalg.norm(b - Av)) / bnorm
+    rel = float(gnorm(comm, b - Av)) / bnorm
     return SolveResult(x, rel <= tol, total, "" if rel <= tol else f"GMRES stopped at relative residual {rel:.3g}")
+
+
+def pcg(matvec, b: np.ndarray, tol: float, maxiter: int, precond=None, comm=None) -> SolveResult:
+    """Preconditioned conjugate gradients from x = 0 (``precond``: v -> M^-1 v, symmetric
+    positive definite), stopping when the recursive residual ||r|| <= tol ||b||; distributed
+    with ``comm``. The AMG solver's Krylov method under MPI."""
+    n = b.shape[0]
+    x = np.zeros(n)
+    bnorm = float(gnorm(comm, b))
+    if bnorm == 0.0:
+        return SolveResult(x, True, 0)
+    r = b.copy()
+    z = precond(r) if precond is not None else r.copy()
+    p = z.copy()
+    rz = float(gdot(comm, r, z))
+    Ap = np.empty(n)
+    rnorm = bnorm
+    for it in range(1, maxiter + 1):
+        matvec(p, Ap)
+        pAp = float(gdot(comm, p, Ap))
+        if not pAp > 0.0:
+            return SolveResult(x, False, it, "CG met a non-positive curvature p.Ap (the matrix or the preconditioner is not positive definite)")
+        alpha = rz / pAp
+        x += alpha * p
+        r -= alpha * Ap
+        rnorm = float(gnorm(comm, r))
+        if rnorm <= tol * bnorm:
+            return SolveResult(x, True, it)
+        z = precond(r) if precond is not None else r.copy()
+        rz_old = rz
+        rz = float(gdot(comm, r, z))
+        p *= rz / rz_old
+        p += z
+    return SolveResult(x, False, maxiter, f"CG reached {maxiter} iterations (relative residual {rnorm / bnorm:.3g})")
 
 
 def _krylov(A, b, M, tol, maxiter, symmetric):
@@ -236,7 +312,8 @@ class LinearSolver:
     method: one of METHODS; tol / maxiter: relative tolerance and iteration limit of the
     iterative methods (Belos: Peridigm's values); belos_method: "BlockCG" or "BlockGMRES";
     symmetric: whether A is symmetric (CG or GMRES acceleration for AMG); coords: (n, 3)
-    reference coordinates in row order (AMG near-null space)."""
+    reference coordinates in row order (AMG near-null space; under MPI the owned points').
+    Under MPI (a distributed TangentMatrix) every call is collective: see the module docstring."""
 
     method: str = "Belos"
     tol: float = 1.0e-4
@@ -260,45 +337,69 @@ class LinearSolver:
     def set_matrix(self, T) -> None:
         """Use the current values of TangentMatrix ``T`` (call again after they change)."""
         self._matrix = T
-        self._chosen = self.chosen(T.shape[0])
+        self._chosen = self.chosen(getattr(T, "ndof", T.shape[0]))
         if self._chosen != "AMG":  # an AMG hierarchy stays a good preconditioner for a while
             self._prepared = None
+
+    @property
+    def _comm(self):
+        T = self._matrix
+        return T.comm if getattr(T, "parallel", False) else None
 
     def _prepare(self):
         t0 = _time.perf_counter()
         T = self._matrix
+        parallel = self._comm is not None
         if self._chosen == "Direct":
             import scipy.sparse.linalg as spla
 
-            A = T.to_scipy(copy=True).tocsc()
-            self._prepared = spla.splu(A)
+            if parallel:
+                A = T.gather_to_root()
+                self._prepared = spla.splu(A) if A is not None and A.shape[0] else "remote"
+            else:
+                A = T.to_scipy(copy=True).tocsc()
+                self._prepared = spla.splu(A)
         elif self._chosen == "AMG":
-            import pyamg
-
-            A = T.to_scipy(copy=True)
-            B = rigid_body_modes(self.coords) if self.coords is not None else None
-            ml = pyamg.smoothed_aggregation_solver(
-                A, B=B, symmetry="hermitian" if self.symmetric else "nonsymmetric", max_coarse=500, smooth=("energy", {"degree": 1})
-            )
-            self._prepared = ml.aspreconditioner(cycle="V")
+            A = T.owned_block() if parallel else T.to_scipy(copy=True)
+            self._prepared = self._amg_preconditioner(A)
             self._amg_iterations = None
         self.setup_time += _time.perf_counter() - t0
+
+    def _amg_preconditioner(self, A):
+        """Smoothed-aggregation AMG V-cycle of A (serially the whole matrix, under MPI this
+        rank's owned block: block-Jacobi with AMG per rank)."""
+        import pyamg
+
+        if A.shape[0] == 0:
+            return lambda v: v.copy()
+        B = rigid_body_modes(self.coords) if self.coords is not None else None
+        ml = pyamg.smoothed_aggregation_solver(
+            A, B=B, symmetry="hermitian" if self.symmetric else "nonsymmetric", max_coarse=500, smooth=("energy", {"degree": 1})
+        )
+        return ml.aspreconditioner(cycle="V")
 
     def solve(self, b: np.ndarray) -> SolveResult:
         T = self._matrix
         if self._prepared is None and self._chosen in ("Direct", "AMG"):
             self._prepare()
         t0 = _time.perf_counter()
+        comm = self._comm
         n = b.shape[0]
-        maxiter = self.maxiter if self.maxiter is not None else n
+        maxiter = self.maxiter if self.maxiter is not None else int(gsum(comm, n))
         if self._chosen == "Belos":
             if self.belos_method == "BlockGMRES":
-                res = gmres(T.matvec, b, self.tol, restart=500, max_restarts=10)
+                res = gmres(T.matvec, b, self.tol, restart=500, max_restarts=10, comm=comm)
             else:
-                res = belos_cg(T.matvec, b, self.tol, maxiter)
+                res = belos_cg(T.matvec, b, self.tol, maxiter, comm=comm)
         elif self._chosen == "Direct":
-            x = self._prepared.solve(b)
-            ok = bool(np.all(np.isfinite(x)))
+            if comm is not None:
+                full = T.gather_vector(b)
+                xf = self._prepared.solve(full) if full is not None and full.size else full
+                x = T.scatter_vector(xf)
+                ok = bool(comm.allreduce_min(int(np.all(np.isfinite(x)))))
+            else:
+                x = self._prepared.solve(b)
+                ok = bool(np.all(np.isfinite(x)))
             res = SolveResult(x, ok, 1, "" if ok else "the direct solver produced non-finite values (singular matrix?)")
         else:
             res = self._amg_solve(b, maxiter)
@@ -320,28 +421,44 @@ class LinearSolver:
         T = self._matrix
         if self._prepared is None:
             self._prepare()
-        n = b.shape[0]
-        A = spla.LinearOperator((n, n), matvec=lambda v: T.matvec(np.ascontiguousarray(v, dtype=float)), dtype=float)
-        x, its = _krylov(A, b, self._prepared, self.tol, maxiter, self.symmetric)
-        bnorm = float(np.linalg.norm(b))
-        rel = (float(np.linalg.norm(b - T.matvec(x))) / bnorm) if bnorm > 0 else 0.0
+        comm = self._comm
+        if comm is not None:
+            M = self._prepared
+            precond = M if callable(M) and not hasattr(M, "matvec") else M.matvec
+            if self.symmetric:
+                res = pcg(T.matvec, b, self.tol, maxiter, precond, comm=comm)
+            else:
+                res = gmres(T.matvec, b, self.tol, restart=200, max_restarts=max(1, maxiter // 200), precond=precond, comm=comm)
+            x, its = res.x, res.iterations
+            bnorm = float(gnorm(comm, b))
+            rel = (float(gnorm(comm, b - T.matvec(x))) / bnorm) if bnorm > 0 else 0.0
+        else:
+            n = b.shape[0]
+            A = spla.LinearOperator((n, n), matvec=lambda v: T.matvec(np.ascontiguousarray(v, dtype=float)), dtype=float)
+            x, its = _krylov(A, b, self._prepared, self.tol, maxiter, self.symmetric)
+            bnorm = float(np.linalg.norm(b))
+            rel = (float(np.linalg.norm(b - T.matvec(x))) / bnorm) if bnorm > 0 else 0.0
         ok = bool(np.isfinite(rel) and rel <= 10.0 * self.tol)
         return SolveResult(x, ok, its, "" if ok else f"AMG-{'CG' if self.symmetric else 'GMRES'} stopped at relative residual {rel:.3g}")
 
 
-def aztec_gmres(matvec, b: np.ndarray, x0: np.ndarray | None, tol: float, kspace: int, maxiter: int, precond=None, *, classical: bool = True) -> SolveResult:
+def aztec_gmres(
+    matvec, b: np.ndarray, x0: np.ndarray | None, tol: float, kspace: int, maxiter: int, precond=None, *, classical: bool = True, comm=None
+) -> SolveResult:
     """AztecOO's restarted GMRES (``AZ_gmres``) as NOX configures it: right preconditioning
     (A M^-1 v), classical Gram-Schmidt applied twice (or modified Gram-Schmidt once), Givens
     rotations, convergence when the recursive residual estimate ||r||/||r0|| <= tol (``AZ_r0``,
     r0 = b - A x0 for the initial guess x0), restart every ``kspace`` vectors, at most
     ``maxiter`` iterations in all. Returns the last iterate even when not converged (NOX then
-    uses it anyway: "Rescue Bad Newton Solve")."""
+    uses it anyway: "Rescue Bad Newton Solve"). ``comm``: the communicator of distributed
+    vectors (every inner product reduced over ranks; the Gram-Schmidt projections of one step in
+    one reduction)."""
     n = b.shape[0]
     x = np.zeros(n) if x0 is None else x0.astype(float, copy=True)
     tmp = np.empty(n)
     matvec(x, tmp)
     r = b - tmp
-    r0 = float(np.sqrt(np.dot(r, r)))
+    r0 = float(np.sqrt(gdot(comm, r, r)))
     if r0 == 0.0:
         return SolveResult(x, True, 0)
     it = 0
@@ -364,15 +481,15 @@ def aztec_gmres(matvec, b: np.ndarray, x0: np.ndarray | None, tol: float, kspace
             w = tmp.copy()
             if classical:
                 for _ in range(2):
-                    dots = V[: i + 1] @ w
+                    dots = gsum(comm, V[: i + 1] @ w)
                     H[: i + 1, i] += dots
                     w -= dots @ V[: i + 1]
             else:
                 for k in range(i + 1):
-                    d = float(np.dot(V[k], w))
+                    d = float(gdot(comm, V[k], w))
                     H[k, i] += d
                     w -= d * V[k]
-            hn = float(np.sqrt(np.dot(w, w)))
+            hn = float(np.sqrt(gdot(comm, w, w)))
             H[i + 1, i] = hn
             V[i + 1] = w / hn if hn > 100.0 * np.finfo(float).tiny else 0.0
             for k in range(i):
@@ -398,7 +515,7 @@ def aztec_gmres(matvec, b: np.ndarray, x0: np.ndarray | None, tol: float, kspace
         if not converged and it < maxiter:
             matvec(x, tmp)
             r = b - tmp
-            rnorm = float(np.sqrt(np.dot(r, r)))
+            rnorm = float(np.sqrt(gdot(comm, r, r)))
     return SolveResult(x, converged, it, "" if converged else f"GMRES reached {maxiter} iterations (relative residual {rnorm / r0:.3g})")
 
 
