@@ -110,7 +110,7 @@ class Implicit(Solver):
             symmetric=True,
             coords=T.to_rows(x).reshape(n, 3),
         )
-        rho_rows = np.repeat(rho[T.local_of_row], 3)
+        rho_rows = np.repeat(rho[T.owned_local], 3)
         has_b = prob.has_body_force
         b = f["External_Force_Density"] if has_b else None
         fixed = prob.fixed_local

@@ -5,6 +5,12 @@ Vectors handed to linear algebra (residuals, Newton increments) are in **row ord
 major, component minor (dof 3 g + c), as in Peridigm, and their norms and dot products are
 sequential sums in that order. Point arrays (Coordinates, Displacement, ...) stay in the
 engine's local order. Global reductions go through ``sim.comm``.
+
+Under MPI each rank's vectors hold its owned points' rows (in global-id order); norms and dot
+products are the ranks' sequential sums reduced with ``allreduce_sum`` (the inf-norm with
+``allreduce_max``), forces come from the engine's distributed evaluation, and the tangent is
+stored by subdomain (:mod:`peridyn.solvers.tangent`). Every method that reduces is a collective
+call: all ranks make the same calls in the same order, whatever they own (possibly nothing).
 """
 from __future__ import annotations
 
@@ -67,17 +73,8 @@ class ImplicitProblem:
     prescribed dofs), its norms, the reactions and the tangent, all in row order."""
 
     def __init__(self, sim, tangent_kind: str = "full", *, section: str = "Solver") -> None:
-        if sim.comm.size > 1:
-            # the tangent's rows, the Krylov solvers and the residual all reduce through
-            # sim.comm already; what is missing is the distributed matrix (ghost columns and
-            # rows of other ranks' points) and the halo exchange inside matrix products
-            raise InputError(
-                "the implicit solvers (QuasiStatic, NOXQuasiStatic, Implicit) run on one process for now",
-                file=sim.deck.file,
-                path=(section,),
-                fix="run this deck without mpiexec",
-            )
         self.sim = sim
+        self.comm = sim.comm if sim.comm.size > 1 else None  # None: the serial arithmetic
         n = sim.num_owned
         self.n = n
         cache = sim.__dict__.setdefault("_implicit_tangents", {})
@@ -86,7 +83,7 @@ class ImplicitProblem:
         self.tangent: TangentMatrix = cache[tangent_kind]
         T = self.tangent
         self.fixed_local = np.ascontiguousarray(sim.prescribed_dofs[:n])
-        self.fixed_rows = np.ascontiguousarray(self.fixed_local[T.local_of_row])
+        self.fixed_rows = np.ascontiguousarray(self.fixed_local[T.owned_local])
         self.fixed_flat = self.fixed_rows.reshape(-1)
         f = sim.fields
         self.volume = f["Volume"][:n]
@@ -100,11 +97,20 @@ class ImplicitProblem:
     def to_local(self, v: np.ndarray, out=None) -> np.ndarray:
         return self.tangent.to_local(v, out)
 
+    def pad(self, a: np.ndarray) -> np.ndarray:
+        """An owned-points array (n, 3) as a local one (num_local, 3), zero on ghosts (itself
+        when there are none)."""
+        nl = self.sim.num_local
+        if a.shape[0] == nl:
+            return a
+        out = np.zeros((nl,) + a.shape[1:])
+        out[: a.shape[0]] = a
+        return out
+
     def norm2(self, v: np.ndarray) -> float:
-        local = seq_norm2(v)
-        if self.sim.comm.size > 1:  # pragma: no cover - MPI
-            return math.sqrt(self.sim.comm.allreduce_sum(local * local))
-        return local
+        if self.comm is not None:
+            return math.sqrt(self.comm.allreduce_sum(seq_dot(v, v)))
+        return seq_norm2(v)
 
     def norm_inf(self, v: np.ndarray) -> float:
         return self.sim.comm.allreduce_max(norm_inf(v))

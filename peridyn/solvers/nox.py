@@ -48,7 +48,7 @@ from ..core.interfaces import Solver
 from ..core.params import ModelParams
 from ..errors import InputError, PeridynError, ExitCode
 from .common import SolverSection
-from .linear import aztec_gmres
+from .linear import aztec_gmres, gdot, gnorm
 from .newton import ImplicitProblem, threads_for, load_times, solver_stats
 from .quasistatic import LoadStepKeys
 
@@ -226,6 +226,14 @@ class NOXRun:
         self.v_bc = np.zeros((self.n, 3))
         self.jacobian_requests = 0
         self.linear_iterations = 0
+        self.comm = self.problem.comm  # None serially
+
+    # -- reductions over ranks (numpy's serially) -----------------------------------------------
+    def _dot(self, a: np.ndarray, b: np.ndarray) -> float:
+        return gdot(self.comm, a, b)
+
+    def _norm(self, a: np.ndarray) -> float:
+        return gnorm(self.comm, a)
 
     # -- the NOX interface ----------------------------------------------------------------------
     def set_state(self, s: np.ndarray) -> None:
@@ -296,7 +304,12 @@ class NOXRun:
             return apply
         import scipy.sparse.linalg as spla
 
-        ilu = spla.spilu(T.to_scipy(copy=True).tocsc(), drop_tol=0.0, fill_factor=1.0)
+        # under MPI: block-Jacobi, an incomplete LU of each rank's owned block (AztecOO's
+        # domain decomposition without overlap)
+        A = T.owned_block() if T.parallel else T.to_scipy(copy=True)
+        if A.shape[0] == 0:
+            return lambda r: r.copy()
+        ilu = spla.spilu(A.tocsc(), drop_tol=0.0, fill_factor=1.0)
         return ilu.solve
 
     # -- directions -----------------------------------------------------------------------------
@@ -304,11 +317,11 @@ class NOXRun:
         lin = self.p.linear_params
         precond = None
         if self.p.matrix_free:
-            norm_s = float(np.sqrt(np.dot(s, s)))
+            norm_s = float(np.sqrt(self._dot(s, s)))
             tmp = np.empty_like(s)
 
             def matvec(w, out):
-                nw = float(np.sqrt(np.dot(w, w)))
+                nw = float(np.sqrt(self._dot(w, w)))
                 if nw == 0.0:
                     nw = 1.0
                 eta = self.LAMBDA * (self.LAMBDA + norm_s / nw)
@@ -331,7 +344,7 @@ class NOXRun:
         # NOX's Epetra group zeroes the Newton vector, solves J x = F and negates x; with a
         # Jacobian-free operator J(-w) != -J(w), so the sign of the right-hand side matters
         tol = self.forcing_tolerance()
-        res = aztec_gmres(matvec, F, None, tol, lin.kspace, lin.max_iterations, precond, classical=lin.orthogonalization == "Classical")
+        res = aztec_gmres(matvec, F, None, tol, lin.kspace, lin.max_iterations, precond, classical=lin.orthogonalization == "Classical", comm=self.comm)
         res.x = -res.x
         self.linear_iterations += res.iterations
         if not res.converged:
@@ -360,18 +373,18 @@ class NOXRun:
             if lin.preconditioner == "None":
                 z = F.copy()
             else:
-                z = aztec_gmres(T.matvec, F, None, 0.0, lin.kspace, lin.preconditioner_iterations, precond, classical=lin.orthogonalization == "Classical").x
+                z = aztec_gmres(T.matvec, F, None, 0.0, lin.kspace, lin.preconditioner_iterations, precond, classical=lin.orthogonalization == "Classical", comm=self.comm).x
         else:
             z = F.copy()
         d = -z
         beta = 0.0
         if niter != 0:
-            denom = float(np.dot(self.old_descent, F_old))
+            denom = float(self._dot(self.old_descent, F_old))
             if cg.orthogonalize == "Polak-Ribiere":
-                beta = float(np.dot(d - self.old_descent, F)) / denom
+                beta = float(self._dot(d - self.old_descent, F)) / denom
                 beta = max(beta, 0.0)
             else:
-                beta = float(np.dot(d, F)) / denom
+                beta = float(self._dot(d, F)) / denom
             if niter % cg.restart_frequency == 0:
                 beta = 0.0
         self.old_descent = d.copy()
@@ -382,8 +395,8 @@ class NOXRun:
     def apply_jacobian(self, s: np.ndarray, F: np.ndarray, d: np.ndarray) -> np.ndarray:
         """J d at s (the directional derivative a line search needs)."""
         if self.p.matrix_free:
-            nd = float(np.sqrt(np.dot(d, d))) or 1.0
-            eta = self.LAMBDA * (self.LAMBDA + float(np.sqrt(np.dot(s, s))) / nd)
+            nd = float(np.sqrt(self._dot(d, d))) or 1.0
+            eta = self.LAMBDA * (self.LAMBDA + float(np.sqrt(self._dot(s, s))) / nd)
             return (self.F(s + eta * d) - F) / eta
         update = self.q.direction.nonlinear_cg.update_jacobian if self.q.direction.method == "NonlinearCG" else 1
         self.jacobian(s, update)
@@ -397,16 +410,16 @@ class NOXRun:
             return s_new, self.F(s_new)
         if ls.method == "NonlinearCG":
             Jd = self.apply_jacobian(s, F, d)
-            step = -float(np.dot(F, d)) / float(np.dot(d, Jd))
+            step = -float(self._dot(F, d)) / float(self._dot(d, Jd))
             s_new = s + step * d
             return s_new, self.F(s_new)
         if ls.method == "Backtrack":
             step = 1.0
-            old = float(np.linalg.norm(F))
+            old = float(self._norm(F))
             for _ in range(100):
                 s_new = s + step * d
                 F_new = self.F(s_new)
-                if float(np.linalg.norm(F_new)) < old:
+                if float(self._norm(F_new)) < old:
                     return s_new, F_new
                 step *= 0.5
             s_new = s + d
@@ -416,14 +429,14 @@ class NOXRun:
     def polynomial(self, s: np.ndarray, F: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """NOX::LineSearch::Polynomial (merit 0.5 ||F||^2, Armijo-Goldstein)."""
         pp = self.q.line_search.polynomial
-        nf = float(np.linalg.norm(F))
+        nf = float(self._norm(F))
         oldf = 0.5 * nf * nf
         # the slope first (a matrix-free product evaluates F at a probe), then the trial point
-        slope = float(np.dot(self.apply_jacobian(s, F, d), F))
+        slope = float(self._dot(self.apply_jacobian(s, F, d), F))
         step = pp.default_step
         s_new = s + step * d
         F_new = self.F(s_new)
-        nn = float(np.linalg.norm(F_new))
+        nn = float(self._norm(F_new))
         newf = 0.5 * nn * nn
         cond = pp.sufficient_decrease_condition
 
@@ -472,7 +485,7 @@ class NOXRun:
                 break
             s_new = s + step * d
             F_new = self.F(s_new)
-            nn = float(np.linalg.norm(F_new))
+            nn = float(self._norm(F_new))
             newf = 0.5 * nn * nn
             ok = sufficient(newf, step)
         if failed:
@@ -504,12 +517,12 @@ class NOXRun:
             self.sim.nonlinear_iterations += 1
             if status != "unconverged":
                 break
-            nF = float(np.linalg.norm(F))
+            nF = float(self._norm(F))
             self.cur_norm = nF
             if q.direction.method == "Newton":
                 d = self.newton_direction(s, F)
                 if q.direction.newton.forcing_term_method == "Type 1":
-                    self.prev_linear_residual = float(np.linalg.norm(F + self.apply_jacobian(s, F, d)))
+                    self.prev_linear_residual = float(self._norm(F + self.apply_jacobian(s, F, d)))
             else:
                 d = self.ncg_direction(s, F, niter, F_old)
             niter += 1
@@ -517,13 +530,13 @@ class NOXRun:
             self.prev_norm = nF
             s, F = self.line_search(s, F, d)
             status = self.status(F, tol, niter)
-            log.debug("%s: load step %d, NOX step %d: ||F|| = %.6g (tolerance %.6g)", self.section, step_index, niter, float(np.linalg.norm(F)), tol)
+            log.debug("%s: load step %d, NOX step %d: ||F|| = %.6g (tolerance %.6g)", self.section, step_index, niter, float(self._norm(F)), tol)
             if status != "unconverged":
                 break
         if status != "converged":
             raise NOXConvergenceError(
                 f"{self.section}: load step {step_index} (t = {self.sim.time:.6g}) did not converge in {q.max_solver_iterations} NOX steps "
-                f"(||F|| = {float(np.linalg.norm(F)):.4g}, tolerance {tol:.4g}); Peridigm aborts here too"
+                f"(||F|| = {float(self._norm(F)):.4g}, tolerance {tol:.4g}); Peridigm aborts here too"
             )
         self.set_state(s)  # y and v as at the last residual evaluation
         return s

@@ -270,7 +270,7 @@ class QuasiStaticRun:
                 break
             lhs[prob.fixed_local] = 0.0
             lhs_rows = prob.to_rows(lhs)
-            alpha = self.line_search(r, lhs_rows, lhs) if self.heuristics else 1.0
+            alpha = self.line_search(r, lhs_rows, prob.pad(lhs)) if self.heuristics else 1.0
             self.du[: self.n] += alpha * lhs
             res, r = self.trial_residual(self.du)
             history.append(res)
