@@ -8,7 +8,7 @@ also at 1e-6."""
 import numpy as np
 import pytest
 
-from peridyn.solvers.linear import LinearSolver, aztec_gmres, belos_cg, seq_dot, seq_norm2
+from peridyn.solvers.linear import LinearSolver, aztec_gmres, belos_cg, gdot, gnorm, gsum, pcg, seq_dot, seq_norm2
 from peridyn.solvers.tangent import TangentMatrix
 
 
@@ -78,3 +78,32 @@ def test_auto_picks_direct_for_small_systems(system):
     s = LinearSolver("Auto")
     s.set_matrix(T)
     assert s._chosen == "Direct"
+
+
+def test_preconditioned_cg_reaches_the_direct_solution(system):
+    """pcg (the Krylov method of the AMG solver under MPI) with and without a Jacobi
+    preconditioner; serially its reductions are plain sums."""
+    T, b, _ = system
+    direct = LinearSolver("Direct")
+    direct.set_matrix(T)
+    xd = direct.solve(b).x
+    d = T.diagonal()
+    for precond in (None, lambda r: r / d):
+        res = pcg(T.matvec, b, 1e-11, 1000, precond)
+        assert res.converged and res.iterations > 1
+        np.testing.assert_allclose(res.x, xd, rtol=0, atol=1e-7 * np.abs(xd).max())
+    assert not pcg(T.matvec, b, 1e-11, 3).converged
+
+
+def test_reductions_without_a_communicator_are_numpys():
+    """gsum / gdot / gnorm with no communicator (or a one-process one) return numpy's values
+    unchanged: the serial arithmetic of the solvers does not change."""
+    from peridyn.core.parallel import SerialComm
+
+    rng = np.random.default_rng(3)
+    a, c = rng.standard_normal(1000), rng.standard_normal(1000)
+    for comm in (None, SerialComm()):
+        assert gdot(comm, a, c) == np.dot(a, c)
+        assert gnorm(comm, a) == np.linalg.norm(a)
+        v = np.arange(3.0)
+        assert gsum(comm, v) is v
