@@ -17,11 +17,16 @@ Solver Iterations`` times:
 * the step length comes from Peridigm's line search (a secant estimate, then fixed candidate
   lists), 1 with ``Disable Heuristics``.
 
-A step that ends above the tolerance is accepted when within 100 x the tolerance; otherwise the
-remaining load steps are skipped (later solvers still run) or, with ``Adaptive Load-Stepping``,
-the step is halved and retried, up to the given numbers of reductions, after which the solver
-either stops or (``Switch to Verlet``) continues from the last converged step with explicit
-dynamics. Reactions: ``Force_Density`` (and ``Force`` = V f) at the prescribed points hold the
+A step that ends above the tolerance is accepted, with a warning, when within 100 x the
+tolerance (and its linear solves succeeded); otherwise, with ``Adaptive Load-Stepping``, the step
+is halved and retried, up to the given numbers of reductions, after which the solver either
+continues from the last converged step with explicit dynamics (``Switch to Verlet``) or stops.
+A step that fails for good stops the run with a :class:`LoadStepError` (exit status 3) naming the
+load step, its time and size, the residual and the tolerance; the output of the converged steps
+is kept. (Peridigm prints "Aborting analysis" there, yet runs the following solver sections.)
+``sim.stats["solvers"]`` records every attempt (``load_steps``: time, size, iterations, residual,
+tolerance, outcome) and the number of halvings (``load_step_reductions``). Reactions:
+``Force_Density`` (and ``Force`` = V f) at the prescribed points hold the
 internal force at the converged configuration, i.e. the negated reactions, as Peridigm writes.
 """
 from __future__ import annotations
@@ -51,6 +56,11 @@ SECOND_CANDIDATES = tuple(
 )
 PURE_NEWTON_STEPS = 50
 DAMPED_TANGENT_INTERVAL = 8
+
+
+class LoadStepError(InstabilityError):
+    """A QuasiStatic load step did not converge and could not be cut back: the run stops (exit
+    status 3), the output of the converged load steps is kept."""
 
 
 class SwitchToVerletParams(ModelParams):
@@ -166,6 +176,9 @@ class QuasiStaticRun:
         self.heuristics = not self.p.disable_heuristics
         self.dt = 1.0
         self.residuals: list[list[float]] = []  # per load step attempt: residual norm before each iteration and at the end
+        self.attempts: list[dict] = []  # per load step attempt: step, time, dt, iterations, residual, tolerance, outcome
+        self.step = 0  # the load step being solved
+        self.failure: str | None = None  # why the last Newton loop stopped early (a failed linear solve)
 
     # -- state ----------------------------------------------------------------------------------
     def set_trial(self, du: np.ndarray) -> None:
@@ -185,7 +198,9 @@ class QuasiStaticRun:
         du0 = self.du.copy()
         rho0, r0 = prob.qs_residual()
         if not math.isfinite(rho0):
-            raise InstabilityError(f"{self.section}: the residual is not finite (t = {self.sim.time:.6g}); the load step is too large or the model is unstable")
+            raise InstabilityError(
+                f"{self.section}: load step {self.step} (t = {self.sim.time:.6g}): the residual is not finite; the load step is too large or the model is unstable"
+            )
         if rho0 == 0.0:
             return 0.0
         best_alpha, best = 1.0, 1.0e50
@@ -222,8 +237,11 @@ class QuasiStaticRun:
     # -- one load step --------------------------------------------------------------------------
     def newton(self, step: int, predictor: np.ndarray, use_predictor_first: bool) -> tuple[float, float, int]:
         """Newton iterations of one load step from the current du; returns (residual norm,
-        tolerance, iterations)."""
+        tolerance, iterations + 1). ``self.failure`` says why the loop stopped early (a linear
+        solve failed: Peridigm's residual 1e50, a step that is never accepted), else None."""
         sim, prob, q = self.sim, self.problem, self.q
+        self.step = step
+        self.failure = None
         T = prob.tangent
         res, r = prob.qs_residual()
         if q.absolute_tolerance is not None:
@@ -264,9 +282,8 @@ class QuasiStaticRun:
                 if ok:
                     lhs = prob.to_local(result.x)
                 else:
-                    log.error("%s: load step %d: the linear solver failed: %s", self.section, step, result.message)
+                    self.failure = f"the linear solve of iteration {it} failed ({result.message})"
             if not ok:
-                res = 1.0e50
                 break
             lhs[prob.fixed_local] = 0.0
             lhs_rows = prob.to_rows(lhs)
@@ -317,27 +334,31 @@ class QuasiStaticRun:
                 sim.apply_body_forces(t_cur)
                 self.set_trial(self.du)
                 res, tol, it = self.newton(step, predictor, p.initialize_predictor)
-                if res > tol:
-                    if res < 100.0 * tol:
-                        log.warning("%s: load step %d (t = %.6g): accepting residual %.4g, above the tolerance %.4g", self.section, step, t_cur, res, tol)
-                    elif adaptive is not None:
+                outcome = "converged" if self.failure is None and res <= tol else "accepted" if self.failure is None and res < 100.0 * tol else "failed"
+                if outcome == "accepted":
+                    log.warning("%s: load step %d (t = %.6g): accepting residual %.4g, above the tolerance %.4g", self.section, step, t_cur, res, tol)
+                elif outcome == "failed":
+                    what = self.describe_failure(step, t_cur, res, tol, it)
+                    if adaptive is not None:
                         failed_this_step += 1
                         total_failures += 1
-                        if total_failures > adaptive.max_total_reductions or failed_this_step > adaptive.max_reductions_in_step:
-                            failed_qs = True
-                            if adaptive.switch_to_verlet is None:
-                                log.error("%s: load step %d (t = %.6g) did not converge and no more load step reductions are allowed; stopping this solver", self.section, step, t_cur)
-                            break
-                        log.warning("%s: load step %d (t = %.6g) did not converge (residual %.4g, tolerance %.4g): halving it", self.section, step, t_cur, res, tol)
-                        retry = True
-                        convergence_failed_in_step = True
-                    else:
-                        log.error(
-                            "%s: load step %d (t = %.6g) did not converge in %d iterations (residual %.4g, tolerance %.4g); the remaining load steps are skipped",
-                            self.section, step, t_cur, it - 1, res, tol,
-                        )
+                        if total_failures <= adaptive.max_total_reductions and failed_this_step <= adaptive.max_reductions_in_step:
+                            outcome = "cut back"
+                            log.warning("%s: halving it", what)
+                            retry = True
+                            convergence_failed_in_step = True
+                        else:
+                            what += (
+                                f"; no more load step reductions allowed ({total_failures - 1} made, at most "
+                                f"{adaptive.max_reductions_in_step} per step and {adaptive.max_total_reductions} in all)"
+                            )
+                    if not retry:
                         failed_qs = True
-                        break
+                self.attempts.append(
+                    {"step": step, "time": t_cur, "dt": self.dt, "iterations": it - 1, "residual": res, "tolerance": tol, "outcome": outcome}
+                )
+                if failed_qs:
+                    break
                 if adaptive is not None and retry:
                     times.insert(step, t_prev + self.dt / 2.0)
                     if adaptive.adaptive_output_frequency:
@@ -368,9 +389,26 @@ class QuasiStaticRun:
             sim, self.section, "QuasiStatic", completed, _time.perf_counter() - wall0, self.problem,
             linear_solver=lin._chosen or lin.method, linear_solve_time=lin.solve_time, linear_setup_time=lin.setup_time,
             linear_iterations=lin.iterations, linear_solves=lin.solves, converged=not failed_qs, residuals=self.residuals,
+            load_steps=self.attempts, load_step_reductions=sum(a["outcome"] == "cut back" for a in self.attempts),
         )
-        if failed_qs and adaptive is not None and adaptive.switch_to_verlet is not None:
-            self.switch_to_verlet(t_prev, t_final, predictor)
+        if failed_qs:
+            if adaptive is not None and adaptive.switch_to_verlet is not None:
+                log.warning("%s", what)
+                self.switch_to_verlet(t_prev, t_final, predictor)
+            else:
+                more = "'Adaptive Load-Stepping'" if adaptive is None else "more load step reductions"
+                raise LoadStepError(
+                    f"{what}; the run stops at the last converged load step (t = {t_prev:.6g}): use smaller load steps, more "
+                    f"'Maximum Solver Iterations' or {more}"
+                )
+
+    def describe_failure(self, step: int, t: float, res: float, tol: float, it: int) -> str:
+        """One line naming the load step, its time and size, the residual and the tolerance."""
+        text = (
+            f"{self.section}: load step {step} (t = {t:.6g}, step size {self.dt:.4g}) did not converge: residual {res:.4g} "
+            f"after {it - 1} iteration(s) (tolerance {tol:.4g}, 'Maximum Solver Iterations' {self.q.maximum_solver_iterations})"
+        )
+        return (text + f"; {self.failure}") if self.failure is not None else text
 
     def switch_to_verlet(self, t_start: float, t_final: float, predictor: np.ndarray) -> None:
         from .verlet import Verlet, VerletSection
