@@ -10,6 +10,8 @@ Krylov iteration counts, tangent nonzeros and peak resident memory.
     python benchmarks/quasistatic.py                       # Peridigm's CG (the deck as is)
     python benchmarks/quasistatic.py --solvers Belos AMG Direct
     python benchmarks/quasistatic.py --deck path/to/deck.yaml
+    python benchmarks/quasistatic.py --np 2                # on 2 MPI ranks (times: rank 0's;
+                                                           # nonzeros: summed; memory: per rank)
 """
 from __future__ import annotations
 
@@ -27,11 +29,16 @@ DEFAULT_DECK = Path(__file__).resolve().parents[2] / "shared" / "benchmarks" / "
 
 def child(deck_path: str, linear_solver: str, out_dir: str) -> dict:
     wall0 = time.perf_counter()
+    from peridyn.cli import _single_threaded_blas
+
+    _single_threaded_blas()  # what `peridyn run` sets up (threads per rank under MPI)
     from peridyn.core.deck import load_deck
     from peridyn.core.engine import Simulation
+    from peridyn.core.parallel import get_comm
 
     deck = load_deck(deck_path)
-    sim = Simulation(deck, output_dir=out_dir, progress=False)
+    comm = get_comm()
+    sim = Simulation(deck, comm=comm, output_dir=out_dir, progress=False)
     setup = time.perf_counter() - wall0
     try:
         for entry in deck.solvers:
@@ -56,7 +63,10 @@ def child(deck_path: str, linear_solver: str, out_dir: str) -> dict:
         "linear_iterations": st["linear_iterations"],
         "newton_iterations": st["nonlinear_iterations"],
         "force_evaluations": st["force_evaluations"],
-        "tangent_nonzeros": st["tangent_nonzeros"],
+        "tangent_nonzeros": comm.allreduce_sum(int(st["tangent_nonzeros"])),
+        "tangent_bytes": comm.allreduce_sum(int(st["tangent_bytes"])),
+        "ranks": comm.size,
+        "rank": comm.rank,
         "load_steps": st["steps"],
         "converged": st["converged"],
         "peak_rss": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024,
@@ -67,16 +77,24 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--deck", default=str(DEFAULT_DECK))
     ap.add_argument("--solvers", nargs="+", default=["Belos"], choices=["Belos", "Direct", "AMG", "Auto"])
+    ap.add_argument("--np", type=int, default=1, help="MPI ranks (mpiexec from mpi4py/mpich)")
     ap.add_argument("--child", nargs=2, metavar=("SOLVER", "OUTDIR"), help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.child:
-        print(json.dumps(child(args.deck, *args.child)))
+        r = child(args.deck, *args.child)
+        if r["rank"] == 0:
+            print(json.dumps(r))
         return 0
-    print(f"deck: {args.deck}")
+    print(f"deck: {args.deck}, {args.np} rank(s)")
+    launcher = []
+    if args.np > 1:
+        from peridyn.testing.mpi import MPIEXEC
+
+        launcher = [MPIEXEC, "-n", str(args.np)]
     for solver in args.solvers:
         with tempfile.TemporaryDirectory() as out:
             p = subprocess.run(
-                [sys.executable, __file__, "--deck", args.deck, "--child", solver, out], capture_output=True, text=True
+                [*launcher, sys.executable, __file__, "--deck", args.deck, "--child", solver, out], capture_output=True, text=True
             )
         if p.returncode != 0:
             print(f"{solver}: failed\n{p.stderr}")
@@ -85,7 +103,8 @@ def main(argv=None) -> int:
         print(
             f"{r['linear_solver']:>6}: wall {r['wall']:6.1f} s (set-up {r['setup']:.1f} s, QuasiStatic {r['solver_wall']:.1f} s); "
             f"tangent: allocation {r['tangent_allocation']:.2f} s, assembly {r['tangent_assembly']:.2f} s "
-            f"({r['tangent_assemblies']} builds, {r['tangent_nonzeros'] / 1e6:.1f} M nonzeros); "
+            f"({r['tangent_assemblies']} builds, {r['tangent_nonzeros'] / 1e6:.1f} M nonzeros, "
+            f"{r['tangent_bytes'] / max(r['tangent_nonzeros'], 1):.2f} bytes each); "
             f"linear solves {r['linear_solve']:.2f} s (+ set-up {r['linear_setup']:.2f} s, {r['linear_iterations']} iterations); "
             f"{r['newton_iterations']} Newton iterations, {r['force_evaluations']} force evaluations, "
             f"{r['load_steps']} load steps{'' if r['converged'] else ' (NOT converged)'}; peak memory {r['peak_rss'] / 2**30:.2f} GiB"

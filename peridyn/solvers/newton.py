@@ -185,6 +185,7 @@ def solver_stats(sim, section: str, method: str, steps: int, wall: float, proble
         "point_steps": steps * sim.num_global,
         "force_evaluations": problem.evaluations,
         "tangent_nonzeros": T.nnz,
+        "tangent_bytes": T.nbytes() if T.nnz else 0,
         "tangent_assemblies": T.assemblies,
         "tangent_assembly_time": T.assembly_time,
         "tangent_allocation_time": T.allocation_time,
