@@ -11,7 +11,7 @@ from __future__ import annotations
 import logging
 import math
 import time as _time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -48,6 +48,11 @@ class Block:
     damage_adopted: bool = False  #: the material applies the damage model's rule in its own loop
     view: BlockView | None = None
     path: tuple[str, ...] = ()
+    #: blocks whose forces this block's fused kernel computes: itself, or a run of neighboring
+    #: blocks with the same models and horizon (see Simulation._check_fusion); empty when another
+    #: block computes this one's forces
+    group: list["Block"] = field(default_factory=list)
+    fused_view: BlockView | None = None  #: the view over the whole group (None: ``view``)
 
     @property
     def density(self) -> float:
@@ -435,37 +440,80 @@ class Simulation:
     def _check_fusion(self) -> None:
         """A block is fused (one kernel computes both ends of its bonds) when no bond crosses
         its boundary in either direction, its horizon is constant and its families are
-        symmetric."""
+        symmetric. Neighboring blocks with the same models (equal parameters) and the same
+        constant horizon form one group, fused as a whole when no bond leaves the group: a deck
+        that splits one material into several blocks (grips and gauge section, say) keeps the
+        fused kernel."""
         nl = self.bonds
-        open_mask = np.zeros(len(self.blocks), dtype=np.bool_)
-        if len(self.blocks) > 1 and nl.num_bonds:
-            crossing_blocks_kernel(self.num_owned, nl.offsets, nl.neighbors, self.block_index, open_mask)
+        groups = self._fusion_groups()
+        group_of_block = np.zeros(len(self.blocks), dtype=np.int64)
+        for g, members in enumerate(groups):
+            for blk in members:
+                group_of_block[blk.index] = g
+        open_mask = np.zeros(len(groups), dtype=np.bool_)
+        if len(groups) > 1 and nl.num_bonds:
+            crossing_blocks_kernel(self.num_owned, nl.offsets, nl.neighbors, group_of_block[self.block_index], open_mask)
         open_mask = self.comm.allreduce_max(open_mask.astype(np.int64)) > 0
-        open_blocks = set(np.nonzero(open_mask)[0].tolist())
         maybe_one_sided = bool(self.deck.discretization.bond_filters)
         parallel = self.comm.size > 1
         reverse = None
-        for blk in self.blocks:
-            blk.fused = blk.index not in open_blocks and blk.horizon is not None
+        for g, members in enumerate(groups):
+            lead = members[0]
+            start, stop = lead.start, members[-1].stop
+            fused = not open_mask[g] and lead.horizon is not None
             if parallel:
                 # a ghost's bond back to an owned point lives on another rank: both ends can be
                 # computed here only when they provably agree (symmetric or no damage)
-                blk.fused = blk.fused and not maybe_one_sided and (blk.damage is None or blk.damage.symmetric)
-                blk.view.closed = blk.fused
-                continue
-            if blk.fused and maybe_one_sided and blk.stop > blk.start:
+                fused = fused and not maybe_one_sided and (lead.damage is None or lead.damage.symmetric)
+            elif fused and maybe_one_sided and stop > start:
                 if reverse is None:
                     reverse = nl.reverse()
-                lo, hi = nl.offsets[blk.start], nl.offsets[blk.stop]
-                blk.fused = bool(np.all(reverse[lo:hi] >= 0))
-            blk.view.closed = blk.fused
-        self.generic_blocks = [blk for blk in self.blocks if not blk.fused]
+                fused = bool(np.all(reverse[nl.offsets[start] : nl.offsets[stop]] >= 0))
+            for blk in members:
+                blk.view.closed = fused
+                blk.fused = fused and blk is lead
+                blk.group = [blk]
+                blk.fused_view = None
+            if fused and len(members) > 1:
+                lead.group = list(members)
+                lead.fused_view = replace(lead.view, stop=stop, name="+".join(b.name for b in members))
+                for blk in members[1:]:
+                    blk.group = []
+        covered = {blk.index for blk in self.blocks if blk.fused for blk in blk.group}
+        self.generic_blocks = [blk for blk in self.blocks if blk.index not in covered]
         if self.generic_blocks:
             self.bond_force = np.zeros(nl.num_bonds)
             nl.transpose()
             nl.sources()
         else:
             self.bond_force = None
+
+    def _fusion_groups(self) -> list[list["Block"]]:
+        """Runs of consecutive blocks (contiguous point ranges) that one fused kernel may
+        compute together: same material and damage model classes with equal parameters, the
+        same constant horizon, no per-bond influence table and the same damage treatment."""
+
+        def signature(blk):
+            d = blk.damage
+            return (
+                type(blk.material), blk.material.params, None if d is None else (type(d), d.params),
+                blk.horizon, blk.damage_adopted,
+            )
+
+        groups: list[list[Block]] = []
+        table = bool(getattr(self.influence, "needs_table", False))
+        for blk in self.blocks:
+            if (
+                groups
+                and not table
+                and blk.horizon is not None
+                and groups[-1][-1].stop == blk.start
+                and signature(groups[-1][-1]) == signature(blk)
+            ):
+                groups[-1].append(blk)
+            else:
+                groups.append([blk])
+        return groups
 
     def _warn_isolated(self) -> None:
         counts = self.bonds.counts()[: self.num_owned]
@@ -612,8 +660,10 @@ class Simulation:
         f = self.fields["Force_Density"]
         pending = []
         for blk in self.blocks:
-            if not (blk.fused and blk.material.force_fused(blk.view, f)):
-                pending.append(blk)
+            if not blk.group:
+                continue  # computed with its group
+            if not (blk.fused and blk.material.force_fused(blk.fused_view or blk.view, f)):
+                pending.extend(blk.group)
         if pending:
             if self.bond_force is None:
                 self.bond_force = np.zeros(self.bonds.num_bonds)
