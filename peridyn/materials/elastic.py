@@ -248,6 +248,41 @@ def fused_force_plain_kernel(start, stop, offsets, neighbors, zeta, y, volume, a
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
+def fused_force_damage_plain_kernel(start, stop, offsets, neighbors, zeta, y, volume, a, c, bond_damage, f):
+    """``fused_force_kernel`` for omega = 1, no thermal strain and damage equal at both ends of
+    a bond (same arithmetic): broken bonds are skipped, and the inner loop has no other branch."""
+    for i in prange(start, stop):
+        fx = 0.0
+        fy = 0.0
+        fz = 0.0
+        ai = a[i]
+        ci = c[i]
+        yi0 = y[i, 0]
+        yi1 = y[i, 1]
+        yi2 = y[i, 2]
+        for b in range(offsets[i], offsets[i + 1]):
+            k = 1.0 - bond_damage[b]
+            if k == 0.0:
+                continue
+            j = neighbors[b]
+            z = zeta[b]
+            ex = y[j, 0] - yi0
+            ey = y[j, 1] - yi1
+            ez = y[j, 2] - yi2
+            L = math.sqrt(ex * ex + ey * ey + ez * ez)
+            e = L - z
+            t = k * (ci * z + k * ai * e) + k * (c[j] * z + k * a[j] * e)
+            if L > 0.0:
+                s = (t * volume[j]) / L
+                fx += s * ex
+                fy += s * ey
+                fz += s * ez
+        f[i, 0] = fx
+        f[i, 1] = fy
+        f[i, 2] = fz
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
 def stored_energy_kernel(start, stop, offsets, neighbors, x, y, volume, m, theta, K, mu, omega_kind, delta, omega_table, bond_damage, dT, alpha_T, W):
     """W_i = K theta^2 / 2 + (15 mu / m_i / 2) sum_j (1-d) omega e_d^2 V_j (energy per volume)."""
     has_damage = bond_damage.shape[0] > 0
@@ -393,6 +428,11 @@ class Elastic(Material):
             )
             return True
         reverse = nl.reverse() if damage.shape[0] and not block.damage_symmetric else EMPTY_INDEX
+        if kind == 0 and damage.shape[0] and not dT.shape[0] and not reverse.shape[0]:
+            fused_force_damage_plain_kernel(
+                block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], s["Volume"], a, c, damage, force_density
+            )
+            return True
         fused_force_kernel(
             block.start, block.stop, nl.offsets, nl.neighbors, reverse, s["Bond_Length"], s["Coordinates"], s["Volume"],
             a, c, kind, delta, table, damage, dT, aT, force_density,

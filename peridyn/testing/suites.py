@@ -165,7 +165,7 @@ class DamageConformance:
     damage: ClassVar[str] = ""
     params: ClassVar[dict[str, Any]] = {}
     material: ClassVar[str] = "Elastic"
-    material_params: ClassVar[dict[str, Any]] = {"Density": 1000.0, "Bulk Modulus": 1.0e9, "Shear Modulus": 0.6e9}
+    material_params: ClassVar[dict[str, Any]] = {"Density": 1000.0, "Bulk Modulus": 1.0e9, "Shear Modulus": 0.4e9}  # 3K != 5mu: the dilatation term of LPS is not zero
     plugins: ClassVar[tuple] = ()
     breaking_strain: ClassVar[float] = 0.5  #: a uniform stretch that must break some bonds
 
@@ -182,6 +182,21 @@ class DamageConformance:
         sim.evaluate_forces()
         assert float(np.abs(sim.fields["Bond_Damage"]).max()) == 0.0
         assert float(np.abs(sim.fields["Damage"]).max()) == 0.0
+
+    def test_fused_and_generic_paths_agree_with_broken_bonds(self):
+        sim = self.simulation()
+        blk = sim.blocks[0]
+        if not blk.fused:
+            pytest.skip("the block is not fused")
+        x = sim.fields["Model_Coordinates"]
+        rng = np.random.default_rng(11)
+        sim.fields["Coordinates"][:] = x * (1.0 + self.breaking_strain * rng.random(x.shape))
+        fused = sim.evaluate_forces().copy()
+        d = sim.fields["Bond_Damage"]
+        assert 0.0 < float(np.mean(d)) < 1.0, "some bonds, not all, should break"
+        blk.fused = False
+        generic = sim.evaluate_forces().copy()
+        np.testing.assert_allclose(generic, fused, rtol=1e-12, atol=1e-12 * float(np.abs(fused).max()))
 
     def test_large_stretch_breaks_bonds_for_good(self):
         sim = self.simulation()
