@@ -202,6 +202,14 @@ class NOXQuasiStatic(Solver):
         return "block diagonal" if params.block_tangent else "full"
 
     def run(self, sim) -> None:
+        p = self.params
+        if p.peridigm_preconditioner is None and p.nox.direction.method == "Newton" and p.linear_params.jacobian_operator == "Matrix-Free":
+            log.warning(
+                "%s: 'Jacobian Operator: Matrix-Free' without 'Peridigm Preconditioner' assembles the full tangent "
+                "(Peridigm's default preconditioner is 'Full Tangent') and solves with it; for a Jacobian-free solve "
+                "set 'Peridigm Preconditioner' to \"None\" or \"Block 3x3\"",
+                self.section,
+            )
         with threads_for(sim):
             NOXRun(self, sim).run()
 

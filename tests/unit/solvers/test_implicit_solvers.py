@@ -249,3 +249,19 @@ def test_nox_failure_stops_the_run(h):
     sim = h.build(bar_deck(h, solver))
     with pytest.raises(NOXConvergenceError, match="did not converge in 2 NOX steps"):
         run(sim)
+
+
+@pytest.mark.parametrize(("preconditioner", "warned", "tangent"), [(None, True, "full"), ("None", False, "block diagonal")])
+def test_matrix_free_without_peridigm_preconditioner_warns_of_the_full_tangent(h, caplog, preconditioner, warned, tangent):
+    """Peridigm's default preconditioner is the full tangent: a 'Matrix-Free' deck without
+    'Peridigm Preconditioner' assembles it (memory!), which the log says, with the fix."""
+    solver = {"Initial Time": 0.0, "Final Time": 1.0, "NOXQuasiStatic": {
+        "Number of Load Steps": 1, "Relative Tolerance": 1e-8,
+        "Direction": {"Method": "Newton", "Newton": {"Linear Solver": {"Jacobian Operator": "Matrix-Free", "Preconditioner": "None"}}}}}
+    if preconditioner is not None:
+        solver["Peridigm Preconditioner"] = preconditioner
+    sim = h.build(bar_deck(h, solver))
+    with caplog.at_level("WARNING", logger="peridyn"):
+        run(sim)
+    assert any("assembles the full tangent" in r.getMessage() for r in caplog.records) == warned
+    assert list(sim._implicit_tangents) == [tangent]
