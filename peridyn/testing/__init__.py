@@ -11,6 +11,9 @@ A material plugin's tests can be as short as::
 pytest collects the inherited checks: parameter validation, zero force under rigid motion,
 momentum conservation, agreement of the fused and generic force paths, independence from the
 thread count, and forces that are the derivative of the stored energy.
+
+:mod:`peridyn.testing.tensile` builds Peridigm's tensile test on a straight bar (reaction forces
+over gauge strain) to measure the Young's modulus a material gives.
 """
 from __future__ import annotations
 
