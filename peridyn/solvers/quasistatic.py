@@ -307,8 +307,9 @@ class QuasiStaticRun:
         sim.apply_kinematic(t_cur, t_prev)
         sim.apply_body_forces(t_cur)
         sim.write_output(t_cur)
+        nnz = sim.comm.allreduce_sum(int(self.problem.tangent.nnz))  # stored by all ranks (ghost rows included)
         log.info("%s: QuasiStatic, %d load steps from t = %.6g to %.6g, %d unknowns, tangent %d nonzeros",
-                 self.section, len(times) - 1, times[0], times[-1], 3 * sim.num_global, self.problem.tangent.nnz)
+                 self.section, len(times) - 1, times[0], times[-1], 3 * sim.num_global, nnz)
 
         adaptive = q.adaptive
         t_final = times[-1]
