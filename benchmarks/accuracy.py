@@ -5,6 +5,12 @@
 2. Time: velocity Verlet on a small LPS cube with a smooth shear; displacement against a run
    with a 64x smaller step, for 16 ... 256 steps.
 3. Elastic wave speed in a bar against the analytic bar and P-wave speeds, by resolution.
+4. Time, implicit: Newmark (trapezoidal rule and the damped beta = 0.3025, gamma = 0.6) on the
+   free vibration of a small LPS cube; displacement against a 32x smaller step, with the Newton
+   iterations' wall time.
+
+The tensile test (Young's modulus against horizon/spacing ratio and section, with run time) is
+benchmarks/tensile.py.
 
 Prints, per problem and resolution, the error and the wall time, and the fitted rate.
 """
@@ -110,7 +116,43 @@ def wave() -> None:
         print(f"{nx:9d} {speed:10.0f} {wall:9.2f}")
 
 
+def newmark() -> None:
+    K, MU = 160.0e9, 80.0e9
+    material = {"Material Model": "Elastic", "Density": 7800.0, "Bulk Modulus": K, "Shear Modulus": MU}
+
+    def run(beta: float, gamma: float, steps: int, final_time: float = 1.0e-3) -> tuple[np.ndarray, float]:
+        tree = cube_deck(material, n=4, horizon_factor=2.015)
+        tree["Boundary Conditions"] = {
+            "All Node Set": " ".join(str(i) for i in range(1, 65)),
+            "VX": {"Type": "Initial Velocity", "Node Set": "All Node Set", "Coordinate": "x", "Value": "0.01*(x-2.0)"},
+            "VY": {"Type": "Initial Velocity", "Node Set": "All Node Set", "Coordinate": "y", "Value": "0.005*(z-2.0)*(x-2.0)"},
+        }
+        tree["Solver"] = {
+            "Initial Time": 0.0, "Final Time": final_time,
+            "Implicit": {"Fixed dt": final_time / steps, "Beta": beta, "Gamma": gamma, "Absolute Tolerance": 1.0e-10, "Maximum Solver Iterations": 20},
+        }
+        sim = build_simulation(tree)
+        t0 = time.perf_counter()
+        for entry in sim.deck.solvers:
+            entry.cls(entry.params, section=entry.section).run(sim)
+        return sim.fields["Displacement"].copy(), time.perf_counter() - t0
+
+    for beta, gamma in ((0.25, 0.5), (0.3025, 0.6)):
+        ref, _ = run(beta, gamma, 2560)
+        print(f"time: Newmark beta = {beta}, gamma = {gamma}, LPS cube, displacement vs a 32x finer step")
+        print(f"{'steps':>8s} {'abs. error':>11s} {'wall s':>9s}")
+        rows = []
+        for steps in (20, 40, 80):
+            u, wall = run(beta, gamma, steps)
+            err = np.abs(u - ref).max()
+            rows.append((1.0e-3 / steps, err))
+            print(f"{steps:8d} {err:11.3e} {wall:9.3f}")
+        dts, es = np.array(rows).T
+        print(f"  fitted rate {np.polyfit(np.log(dts), np.log(es), 1)[0]:.2f} (expected {2 if gamma == 0.5 else 1})")
+
+
 if __name__ == "__main__":
     space()
     timing()
     wave()
+    newmark()
