@@ -57,8 +57,7 @@ def child(ratio: float, section: float, solver: str, directory: str) -> dict:
 
     bar = tensile_bar(MATERIAL, directory, ratio=ratio, horizon=HORIZON, section=section, solver=solver_section(solver))
     sim = build_simulation(bar.tree, directory=directory)
-    for entry in sim.deck.solvers:
-        entry.cls(entry.params, section=entry.section).run(sim)
+    sim.run_solvers()
     sim.outputs.close()
     st = sim.stats["solvers"][-1]
     modulus = bar.youngs_modulus(sim)

@@ -48,8 +48,7 @@ def cmd_run(args) -> int:
     sim = Simulation(deck, comm=comm, output_dir=output_dir, progress=not args.no_progress)
     _log_setup(sim)
     try:
-        for entry in deck.solvers:
-            entry.cls(entry.params, section=entry.section).run(sim)
+        sim.run_solvers()
     finally:
         sim.outputs.close()
     _log_summary(sim, time.perf_counter() - wall0)
@@ -90,8 +89,7 @@ def _run_parallel(args, comm, output_dir: Path, wall0: float) -> int:
         _abort(comm, exc, args)
     _log_setup(sim)
     try:
-        for entry in deck.solvers:
-            entry.cls(entry.params, section=entry.section).run(sim)
+        sim.run_solvers()
     except InstabilityError as exc:  # detected collectively: every rank raises it at the same step
         sim.outputs.close()
         if comm.rank == 0:

@@ -639,6 +639,12 @@ class Simulation:
             if spec.halo and spec.is_point:
                 self.halo.exchange(self.fields[name])
 
+    def run_solvers(self) -> None:
+        """Run the deck's solver sections in deck order (what ``peridyn run`` does between set-up
+        and the summary; the caller closes ``outputs``)."""
+        for entry in self.deck.solvers:
+            entry.cls(entry.params, section=entry.section).run(self)
+
     def evaluate_forces(self) -> np.ndarray:
         """Peridigm's evalModel: damage, precompute, force. Returns Force_Density (n, 3)."""
         parallel = self.comm.size > 1

@@ -17,7 +17,7 @@ over gauge strain) to measure the Young's modulus a material gives.
 """
 from __future__ import annotations
 
-from .harness import build_simulation, cube_deck, isolated_registry
+from .harness import build_simulation, cube_deck, isolated_registry, node_set_ids
 from .suites import DamageConformance, MaterialConformance
 
-__all__ = ["build_simulation", "cube_deck", "isolated_registry", "MaterialConformance", "DamageConformance"]
+__all__ = ["build_simulation", "cube_deck", "isolated_registry", "node_set_ids", "MaterialConformance", "DamageConformance"]

@@ -18,10 +18,12 @@ def cube_deck(
     damage: dict[str, Any] | None = None,
     spherical: bool = True,
     extra: dict[str, Any] | None = None,
+    shape: tuple[int, int, int] | None = None,
 ) -> dict[str, Any]:
-    """A deck tree: an n^3 PdQuickGrid cube of the given spacing, one block of ``material``
-    (a Materials entry, ``Material Model`` included), optional damage model, no solver."""
-    length = n * spacing
+    """A deck tree: an n^3 PdQuickGrid cube (or a box of ``shape`` points per direction) of
+    the given spacing from the origin, one block of ``material`` (a Materials entry,
+    ``Material Model`` included), optional damage model, no solver."""
+    nx, ny, nz = shape if shape is not None else (n, n, n)
     tree: dict[str, Any] = {
         "Discretization": {
             "Type": "PdQuickGrid",
@@ -30,12 +32,12 @@ def cube_deck(
                 "X Origin": 0.0,
                 "Y Origin": 0.0,
                 "Z Origin": 0.0,
-                "X Length": length,
-                "Y Length": length,
-                "Z Length": length,
-                "Number Points X": n,
-                "Number Points Y": n,
-                "Number Points Z": n,
+                "X Length": nx * spacing,
+                "Y Length": ny * spacing,
+                "Z Length": nz * spacing,
+                "Number Points X": nx,
+                "Number Points Y": ny,
+                "Number Points Z": nz,
             },
         },
         "Materials": {"M": dict(material)},
@@ -62,6 +64,14 @@ def build_simulation(tree: dict[str, Any], *, directory: str | Path = ".", regis
     source = DeckSource(copy.deepcopy(tree), directory / "<memory>.yaml", "yaml", {})
     deck = parse_deck(source, registry)
     return Simulation(deck, output_dir=output_dir or directory, progress=False)
+
+
+def node_set_ids(tree: dict[str, Any], where, *, directory: str | Path = ".") -> str:
+    """An inline node set (1-based point numbers) of the points of ``tree``'s mesh whose
+    reference positions satisfy ``where(x)`` (x: (n, 3) array; returns an (n,) bool mask)."""
+    sim = build_simulation(tree, directory=directory)
+    x, gid = sim.discretization.x, sim.discretization.gid
+    return " ".join(str(g + 1) for g in gid[where(x)])
 
 
 @contextlib.contextmanager

@@ -16,7 +16,7 @@ import math
 import numpy as np
 import pytest
 
-from peridyn.testing import build_simulation, cube_deck
+from peridyn.testing import build_simulation, cube_deck, node_set_ids
 
 K, MU = 160.0e9, 80.0e9
 E = 9.0 * K * MU / (3.0 * K + MU)
@@ -24,37 +24,18 @@ NU = (3.0 * K - 2.0 * MU) / (2.0 * (3.0 * K + MU))
 LPS = {"Material Model": "Elastic", "Density": 7800.0, "Bulk Modulus": K, "Shear Modulus": MU}
 
 
-def box(shape, horizon, material=LPS):
-    tree = cube_deck(material, n=1, horizon_factor=horizon)
-    g = tree["Discretization"]["TensorProduct3DMeshGenerator"]
-    g.update({"X Length": float(shape[0]), "Y Length": float(shape[1]), "Z Length": float(shape[2])})
-    g.update({"Number Points X": shape[0], "Number Points Y": shape[1], "Number Points Z": shape[2]})
-    return tree
-
-
-def node_set(tree, mask_of_x):
-    sim = build_simulation(tree)
-    x, gid = sim.discretization.x, sim.discretization.gid
-    return " ".join(str(g + 1) for g in gid[mask_of_x(x)])
-
-
-def run(sim):
-    for entry in sim.deck.solvers:
-        entry.cls(entry.params, section=entry.section).run(sim)
-
-
 def test_quasistatic_bar_in_the_bulk_is_the_linear_elastic_solution():
     eps = 1.0e-4
     shape, horizon, layer = (12, 8, 8), 1.515, 3.0  # layer >= 2 horizons
     L = np.array(shape, dtype=float)
-    tree = box(shape, horizon)
-    ids = node_set(tree, lambda x: np.any((x < layer) | (x > L - layer), axis=1))
+    tree = cube_deck(LPS, shape=shape, horizon_factor=horizon)
+    ids = node_set_ids(tree, lambda x: np.any((x < layer) | (x > L - layer), axis=1))
     tree["Boundary Conditions"] = {"Layer Node Set": ids}
     for c, f in zip("xyz", (1.0, -NU, -NU)):
         tree["Boundary Conditions"][f"U{c}"] = {"Type": "Prescribed Displacement", "Node Set": "Layer Node Set", "Coordinate": c, "Value": f"{f * eps!r}*{c}*t"}
     tree["Solver"] = {"Initial Time": 0.0, "Final Time": 1.0, "QuasiStatic": {"Number of Load Steps": 2, "Relative Tolerance": 1.0e-10}}
     sim = build_simulation(tree)
-    run(sim)
+    sim.run_solvers()
     assert sim.stats["solvers"][-1]["converged"]
     x = sim.fields["Model_Coordinates"]
     u = sim.fields["Displacement"]
@@ -85,10 +66,10 @@ def test_newton_converges_quadratically():
     a direct solver on a bar stretched 4 % and sheared 6 % in one load step: each residual is
     about the square of the previous (convergence order >= 1.8 until round-off is reached)."""
     shape = (5, 5, 5)
-    tree = box(shape, 2.015)
+    tree = cube_deck(LPS, shape=shape, horizon_factor=2.015)
     tree["Boundary Conditions"] = {
-        "Left Node Set": node_set(tree, lambda x: x[:, 0] < 1.0),
-        "Right Node Set": node_set(tree, lambda x: x[:, 0] > 4.0),
+        "Left Node Set": node_set_ids(tree, lambda x: x[:, 0] < 1.0),
+        "Right Node Set": node_set_ids(tree, lambda x: x[:, 0] > 4.0),
         **{f"L{c}": {"Type": "Prescribed Displacement", "Node Set": "Left Node Set", "Coordinate": c, "Value": "0.0"} for c in "xyz"},
         "RX": {"Type": "Prescribed Displacement", "Node Set": "Right Node Set", "Coordinate": "x", "Value": "0.2*t"},
         "RY": {"Type": "Prescribed Displacement", "Node Set": "Right Node Set", "Coordinate": "y", "Value": "0.3*t"},
@@ -98,7 +79,7 @@ def test_newton_converges_quadratically():
         "QuasiStatic": {"Number of Load Steps": 1, "Relative Tolerance": 1.0e-13, "Maximum Solver Iterations": 12, "Linear Solver": "Direct"},
     }
     sim = build_simulation(tree)
-    run(sim)
+    sim.run_solvers()
     r = np.array(sim.stats["solvers"][-1]["residuals"][0])
     floor = 1.0e-14 * r[0]  # round-off of the force evaluation (the last residual sits there)
     # the order of iteration k: log(r_k+1/r_k) / log(r_k/r_k-1); the first step starts far from
@@ -136,7 +117,7 @@ def newmark_energy(beta, gamma, steps=20, dt=2.0e-4):
         energy.append(sim.kinetic_energy() + (sim.stored_energy() if t > 0 else 0.0))
 
     sim.write_output = record
-    run(sim)
+    sim.run_solvers()
     return np.array(energy)
 
 
@@ -153,7 +134,7 @@ def test_newmark_trapezoidal_rule_conserves_energy():
 def newmark_displacement(beta, gamma, steps, final_time=1.0e-3):
     """Displacement of the vibration at ``final_time``."""
     sim = vibration(beta, gamma, steps, final_time)
-    run(sim)
+    sim.run_solvers()
     np.testing.assert_allclose(sim.time, final_time, rtol=1e-12)
     return sim.fields["Displacement"].copy()
 

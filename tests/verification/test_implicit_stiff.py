@@ -27,32 +27,12 @@ from peridyn.cli import main
 from peridyn.errors import ExitCode
 from peridyn.io.exodus_reader import read_results
 from peridyn.solvers.quasistatic import LoadStepError
-from peridyn.testing import build_simulation, cube_deck
+from peridyn.testing import build_simulation, cube_deck, node_set_ids
 
 G = 1.0e9
 K = 1000.0 * G  # K/G = 1000
 NU = (3.0 * K - 2.0 * G) / (2.0 * (3.0 * K + G))  # 0.49967
 STIFF = {"Material Model": "Elastic", "Density": 1000.0, "Bulk Modulus": K, "Shear Modulus": G}
-
-
-def box(shape, horizon, material=STIFF, **kw):
-    """A PdQuickGrid box of unit spacing, shape = points per direction, spherical families."""
-    tree = cube_deck(material, n=1, horizon_factor=horizon, **kw)
-    g = tree["Discretization"]["TensorProduct3DMeshGenerator"]
-    g.update({"X Length": float(shape[0]), "Y Length": float(shape[1]), "Z Length": float(shape[2])})
-    g.update({"Number Points X": shape[0], "Number Points Y": shape[1], "Number Points Z": shape[2]})
-    return tree
-
-
-def node_set(tree, mask_of_x):
-    sim = build_simulation(tree)
-    x, gid = sim.discretization.x, sim.discretization.gid
-    return " ".join(str(g + 1) for g in gid[mask_of_x(x)])
-
-
-def run(sim):
-    for entry in sim.deck.solvers:
-        entry.cls(entry.params, section=entry.section).run(sim)
 
 
 def check_every_accepted_step_converged(st, max_iterations):
@@ -76,8 +56,8 @@ def test_nearly_incompressible_bar_in_the_bulk_converges_to_the_affine_solution(
     eps = 1.0e-4
     shape, horizon, layer = (10, 8, 7), 1.515, 3.0  # layer >= 2 horizons; 560 points, 8 free
     L = np.array(shape, dtype=float)
-    tree = box(shape, horizon)
-    tree["Boundary Conditions"] = {"Layer Node Set": node_set(tree, lambda x: np.any((x < layer) | (x > L - layer), axis=1))}
+    tree = cube_deck(STIFF, shape=shape, horizon_factor=horizon)
+    tree["Boundary Conditions"] = {"Layer Node Set": node_set_ids(tree, lambda x: np.any((x < layer) | (x > L - layer), axis=1))}
     for c, f in zip("xyz", (1.0, -NU, -NU)):
         tree["Boundary Conditions"][f"U{c}"] = {"Type": "Prescribed Displacement", "Node Set": "Layer Node Set", "Coordinate": c, "Value": f"{f * eps!r}*{c}*t"}
     max_iterations = 10  # Peridigm's default
@@ -86,7 +66,7 @@ def test_nearly_incompressible_bar_in_the_bulk_converges_to_the_affine_solution(
         "QuasiStatic": {"Number of Load Steps": 2, "Relative Tolerance": 1.0e-10, "Maximum Solver Iterations": max_iterations},
     }
     sim = build_simulation(tree)
-    run(sim)
+    sim.run_solvers()
     st = sim.stats["solvers"][-1]
     assert st["converged"] and st["steps"] == 2 and st["load_step_reductions"] == 0
     check_every_accepted_step_converged(st, max_iterations)
@@ -123,11 +103,11 @@ def test_nearly_incompressible_bar_in_the_bulk_converges_to_the_affine_solution(
 def stretch_and_shear_deck(solver, shape=(5, 5, 5)):
     """A K/G = 1000 bar clamped at x < 1 and moved at x > n - 1 by (0.2 t, 0.3 t): 5 % stretch
     and 7.5 % shear at t = 1, far into the geometrically nonlinear range."""
-    tree = box(shape, 2.015)
+    tree = cube_deck(STIFF, shape=shape, horizon_factor=2.015)
     n = shape[0]
     tree["Boundary Conditions"] = {
-        "Left Node Set": node_set(tree, lambda x: x[:, 0] < 1.0),
-        "Right Node Set": node_set(tree, lambda x: x[:, 0] > n - 1.0),
+        "Left Node Set": node_set_ids(tree, lambda x: x[:, 0] < 1.0),
+        "Right Node Set": node_set_ids(tree, lambda x: x[:, 0] > n - 1.0),
         **{f"L{c}": {"Type": "Prescribed Displacement", "Node Set": "Left Node Set", "Coordinate": c, "Value": "0.0"} for c in "xyz"},
         "RX": {"Type": "Prescribed Displacement", "Node Set": "Right Node Set", "Coordinate": "x", "Value": "0.2*t"},
         "RY": {"Type": "Prescribed Displacement", "Node Set": "Right Node Set", "Coordinate": "y", "Value": "0.3*t"},
@@ -146,7 +126,7 @@ def test_newton_converges_quadratically_at_k_over_g_1000():
         "QuasiStatic": {"Number of Load Steps": 1, "Relative Tolerance": 1.0e-12, "Maximum Solver Iterations": max_iterations, "Linear Solver": "Direct"},
     }
     sim = build_simulation(stretch_and_shear_deck(solver))
-    run(sim)
+    sim.run_solvers()
     st = sim.stats["solvers"][-1]
     assert st["converged"]
     check_every_accepted_step_converged(st, max_iterations)
@@ -198,7 +178,7 @@ def test_two_blocks_with_a_100x_stiffness_jump_strain_inversely_to_their_moduli(
         },
     }
     sim = build_simulation(tree, directory=tmp_path)
-    run(sim)
+    sim.run_solvers()
     st = sim.stats["solvers"][-1]
     assert st["converged"]
     check_every_accepted_step_converged(st, max_iterations)
@@ -285,7 +265,7 @@ def test_unconverged_load_step_stops_the_run_with_one_line_naming_it(tmp_path, c
     # the solver statistics say which attempt failed
     sim = build_simulation(stretch_and_shear_deck(solver))
     with pytest.raises(LoadStepError, match=r"load step 3 \(t = 1, step size 0\.5\) did not converge: residual"):
-        run(sim)
+        sim.run_solvers()
     st = sim.stats["solvers"][-1]
     assert not st["converged"] and st["steps"] == 2
     assert [a["outcome"] for a in st["load_steps"]] == ["converged", "converged", "failed"]
@@ -300,7 +280,7 @@ def test_adaptive_load_stepping_halves_the_step_until_it_converges(caplog):
     solver = {"Initial Time": 0.0, "Final Time": 1.0, "Disable Heuristics": True, "QuasiStatic": qs}
     sim = build_simulation(stretch_and_shear_deck(solver))
     with caplog.at_level("WARNING", logger="peridyn.solver"):
-        run(sim)
+        sim.run_solvers()
     st = sim.stats["solvers"][-1]
     assert st["converged"]
     attempts = st["load_steps"]
@@ -329,7 +309,7 @@ def test_adaptive_load_stepping_halves_the_step_until_it_converges(caplog):
     # the same equilibrium as four fixed load steps (elastic: path-independent); both meet 1e-10
     # of the reactions, the K/G = 1000 shear modes amplify that to < 1e-7 of the displacements
     ref = build_simulation(stretch_and_shear_deck({"Initial Time": 0.0, "Final Time": 1.0, "Disable Heuristics": True, "QuasiStatic": dict(PURE_NEWTON, **{"Number of Load Steps": 4})}))
-    run(ref)
+    ref.run_solvers()
     assert ref.stats["solvers"][-1]["converged"]
     u, u_ref = sim.fields["Displacement"], ref.fields["Displacement"]
     np.testing.assert_allclose(u, u_ref, rtol=0, atol=1.0e-7 * np.abs(u_ref).max())
@@ -343,7 +323,7 @@ def test_stiff_step_the_default_cg_cannot_solve_fails_clearly_then_is_cut_back()
     qs = {"Number of Load Steps": 1, "Relative Tolerance": 1.0e-10}
     sim = build_simulation(stretch_and_shear_deck({"Initial Time": 0.0, "Final Time": 1.0, "QuasiStatic": qs}))
     with pytest.raises(LoadStepError) as info:
-        run(sim)
+        sim.run_solvers()
     msg = str(info.value)
     assert "\n" not in msg
     assert "load step 1 (t = 1, step size 1) did not converge: residual" in msg and "the linear solve of iteration" in msg, msg
@@ -353,7 +333,7 @@ def test_stiff_step_the_default_cg_cannot_solve_fails_clearly_then_is_cut_back()
 
     adaptive = {"Maximum load step reductions in one step": 2, "Maximum total load step reductions": 2}
     sim = build_simulation(stretch_and_shear_deck({"Initial Time": 0.0, "Final Time": 1.0, "QuasiStatic": dict(qs, **{"Adaptive Load-Stepping": adaptive})}))
-    run(sim)
+    sim.run_solvers()
     st = sim.stats["solvers"][-1]
     assert st["converged"] and st["load_step_reductions"] >= 1
     check_every_accepted_step_converged(st, 10)

@@ -45,8 +45,7 @@ MATRIX_FREE = {
 def measure(tmp_path, ratio, section, solver=None):
     bar = tensile_bar(LPS, tmp_path, ratio=ratio, horizon=1.0e-3, section=section, solver=solver)
     sim = build_simulation(bar.tree, directory=tmp_path)
-    for entry in sim.deck.solvers:
-        entry.cls(entry.params, section=entry.section).run(sim)
+    sim.run_solvers()
     # QuasiStatic records whether its steps converged; NOXQuasiStatic stops the run when not
     assert all(s.get("converged", True) for s in sim.stats["solvers"])
     width = bar.points_across * bar.spacing
