@@ -106,30 +106,14 @@ def kinematic_bc_kernel(indptr, indices, data, diag_pos, fixed):
     |A_kk|)/N_dof (sequential, ascending dof order, before any change), then rows and columns of
     the fixed dofs (fixed: (nrows, 3) bool) are zeroed and their diagonal set to D. Returns D."""
     n = indptr.shape[0] - 1
-    total = 0.0
-    for r in range(n):
-        p = diag_pos[r]
-        for d in range(3):
-            total += abs(data[p, d, d])
-    D = (-1.0 * total) / (3 * n) if n > 0 else 0.0
+    D = (-1.0 * abs_diagonal_sum_kernel(data, diag_pos, n)) / (3 * n) if n > 0 else 0.0
     any_fixed = False
     for r in range(n):
         for d in range(3):
             if fixed[r, d]:
                 any_fixed = True
-    if not any_fixed:
-        return D
-    for r in range(n):
-        for p in range(indptr[r], indptr[r + 1]):
-            col = indices[p]
-            for d in range(3):
-                for c in range(3):
-                    if fixed[r, d] or fixed[col, c]:
-                        data[p, d, c] = 0.0
-        p = diag_pos[r]
-        for d in range(3):
-            if fixed[r, d]:
-                data[p, d, d] = D
+    if any_fixed:
+        kinematic_bc_set_kernel(indptr, indices, data, diag_pos, fixed, D, n)
     return D
 
 

@@ -27,11 +27,7 @@ BOND_BASED = {"Material Model": "Elastic Bond Based", "Density": 7800.0, "Bulk M
 # ------------------------------------------------------------------------------------------------
 def box(material, shape, horizon=2.015, **kw) -> dict:
     """A PdQuickGrid box of unit spacing (shape = points per direction), one block."""
-    tree = cube_deck(material, n=1, horizon_factor=horizon, **kw)
-    g = tree["Discretization"]["TensorProduct3DMeshGenerator"]
-    g.update({"X Length": float(shape[0]), "Y Length": float(shape[1]), "Z Length": float(shape[2])})
-    g.update({"Number Points X": shape[0], "Number Points Y": shape[1], "Number Points Z": shape[2]})
-    return tree
+    return cube_deck(material, shape=shape, horizon_factor=horizon, **kw)
 
 
 def bar(solver: dict, *, material=LPS, shape=(8, 3, 3), pull="0.002*t", body_force=None, damage=None, clamp="xyz") -> dict:

@@ -15,11 +15,7 @@ BOND_BASED = {"Material Model": "Elastic Bond Based", "Density": 7800.0, "Bulk M
 
 def box_deck(material, shape=(4, 4, 4), horizon=2.015, **kw):
     """A PdQuickGrid box of unit spacing (shape = points per direction), one block."""
-    tree = cube_deck(material, n=1, horizon_factor=horizon, **kw)
-    g = tree["Discretization"]["TensorProduct3DMeshGenerator"]
-    g.update({"X Length": float(shape[0]), "Y Length": float(shape[1]), "Z Length": float(shape[2])})
-    g.update({"Number Points X": shape[0], "Number Points Y": shape[1], "Number Points Z": shape[2]})
-    return tree
+    return cube_deck(material, shape=shape, horizon_factor=horizon, **kw)
 
 
 def two_block_text_deck(tmp_path, material, shape=(6, 4, 4), horizons=(1.515, 2.015)):
