@@ -78,7 +78,10 @@ class EnergyMonitor:
     change also does work that is not tracked, so there the balance is reported but not used
     as a stopping criterion.)
 
-    ``check`` runs every step and costs O(points). A run is stopped as unstable when
+    ``check`` runs every step and costs O(points). Under MPI the per-step sums of ``batch``
+    steps are reduced over ranks together, in one reduction (the same sums step by step, so the
+    same decisions, made at most ``batch - 1`` steps later): a reduction every step would make
+    every rank wait for the slowest one once more per step. A run is stopped as unstable when
 
     * velocities or forces become non-finite; or
     * the kinetic energy at least doubles at every one of ``window`` consecutive steps (1000x
@@ -89,8 +92,10 @@ class EnergyMonitor:
       the last ``window // 2`` steps (a physical run keeps the error a small fraction).
     """
 
-    def __init__(self, sim, dt: float, dt_estimate: float, *, window: int = 10, accounting: bool = True) -> None:
+    def __init__(self, sim, dt: float, dt_estimate: float, *, window: int = 10, accounting: bool = True, batch: int | None = None) -> None:
         self.sim = sim
+        self.batch = batch if batch is not None else (1 if sim.comm.size == 1 else 16)
+        self._rows: list[tuple[int, float, np.ndarray]] = []  # (step, time, local sums) not yet reduced
         self.dt = dt
         self.dt_estimate = dt_estimate
         self.window = window
@@ -142,12 +147,32 @@ class EnergyMonitor:
         return max(abs(self.kinetic), abs(self.stored), abs(self.external), abs(self.constraint), abs(self.kinetic0))
 
     def check(self, step: int, time: float) -> None:
+        """Account for the step just completed (after ``force_work``); raises InstabilityError."""
         sim = self.sim
         n = sim.num_owned
         w_all, w_presc, w_body = self._pending
-        local = np.array([w_all, w_presc, w_body, self._kinetic_local(), float(np.sum(sim.fields["Force_Density"][:n]))])
-        total = sim.comm.allreduce_sum(local) if sim.comm.size > 1 else local
         self._pending = (0.0, 0.0, 0.0)
+        local = np.array([w_all, w_presc, w_body, self._kinetic_local(), float(np.sum(sim.fields["Force_Density"][:n]))])
+        if sim.comm.size == 1:
+            self._account(step, time, local)
+            return
+        self._rows.append((step, time, local))
+        if len(self._rows) >= self.batch:
+            self.flush()
+
+    def flush(self) -> None:
+        """Reduce and account for the steps checked but not yet reduced (MPI; the solver calls
+        this after its last step)."""
+        if not self._rows:
+            return
+        rows, self._rows = self._rows, []
+        totals = self.sim.comm.allreduce_sum(np.stack([r[2] for r in rows]))
+        for (step, time, _), total in zip(rows, totals):
+            self._account(step, time, total)
+
+    def _account(self, step: int, time: float, total: np.ndarray) -> None:
+        """One step's global sums: (internal work, work on prescribed components, body-force
+        work, kinetic energy of free components, sum of force densities)."""
         self.stored -= total[0]
         self.constraint -= total[1]
         self.external += total[2]
@@ -174,16 +199,23 @@ class EnergyMonitor:
                 self._fail_growth(step, time, ke[-1] / ke[-half - 1] if ke[-half - 1] > 0 else math.inf, steps=half)
 
     # diagnosis --------------------------------------------------------------------------------
-    def _worst_point(self) -> tuple[int, str]:
+    def _worst_point(self) -> str:
+        """The point with a non-finite velocity, else the fastest one, over all ranks."""
         sim = self.sim
         n = sim.num_owned
         v = sim.fields["Velocity"][:n]
-        bad = ~np.isfinite(v).all(axis=1)
-        k = int(np.argmax(bad)) if bad.any() else int(np.argmax(np.einsum("ij,ij->i", v, v)))
-        gid = int(sim.gid[k]) + 1
-        x = sim.fields["Model_Coordinates"][k]
-        blk = sim.blocks[int(sim.block_index[k])].name
-        return k, f"point {gid} (block {blk}, x = {x[0]:.4g}, {x[1]:.4g}, {x[2]:.4g})"
+        where = ""
+        speed = -1.0
+        if n:
+            bad = ~np.isfinite(v).all(axis=1)
+            k = int(np.argmax(bad)) if bad.any() else int(np.argmax(np.einsum("ij,ij->i", v, v)))
+            speed = math.inf if bad.any() else float(np.dot(v[k], v[k]))
+            x = sim.fields["Model_Coordinates"][k]
+            blk = sim.blocks[int(sim.block_index[k])].name
+            where = f"point {int(sim.gid[k]) + 1} (block {blk}, x = {x[0]:.4g}, {x[1]:.4g}, {x[2]:.4g})"
+        if sim.comm.size > 1:
+            speed, where = max(sim.comm.allgather((speed, where)), key=lambda c: c[0])
+        return where
 
     def _advice(self) -> str:
         ratio = self.dt / self.dt_estimate if self.dt_estimate > 0 else float("inf")
@@ -193,13 +225,13 @@ class EnergyMonitor:
         )
 
     def _fail_nonfinite(self, step: int, time: float) -> None:
-        _, where = self._worst_point()
+        where = self._worst_point()
         raise InstabilityError(
             f"the run went unstable at step {step} (t = {time:.6g}): non-finite velocity or force at {where}; " + self._advice()
         )
 
     def _fail_growth(self, step: int, time: float, growth: float, steps: int | None = None) -> None:
-        _, where = self._worst_point()
+        where = self._worst_point()
         raise InstabilityError(
             f"the run went unstable at step {step} (t = {time:.6g}): kinetic energy grew {growth:.3g}x in the last {steps or self.window} "
             f"steps with no work to account for it (energy balance error {abs(self.balance):.3g}), fastest at {where}; " + self._advice()

@@ -121,6 +121,7 @@ class Verlet(Solver):
             sim.advance()
             monitor.check(step, t)
             progress.update(step)
+        monitor.flush()
         progress.close()
         wall = _time.perf_counter() - wall0
         sim.stats.setdefault("solvers", []).append(

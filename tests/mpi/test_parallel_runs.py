@@ -146,3 +146,35 @@ def test_an_exception_on_one_rank_ends_every_rank(tmp_path):
     proc = mpirun(2, ["run", "fail.yaml"], tmp_path, timeout=120, env=env)  # a hang fails by timeout
     assert proc.returncode != 0
     assert "error on rank 1 of 2: RuntimeError: simulated failure on one rank; stopping all ranks" in proc.stderr
+
+
+def test_an_unstable_run_stops_on_every_rank_at_the_serial_step(tmp_path):
+    """Three times the stable time step after an impact: on 1 and 2 ranks the run stops with
+    exit status 3 and one message naming the same step (under MPI the stability sums of up to
+    16 steps are reduced together: the same sums, so the same decision, taken up to 15 steps
+    later), and the output written so far is readable."""
+    from peridyn.testing import node_set_ids
+
+    material = {"Material Model": "Elastic", "Density": 7800.0, "Bulk Modulus": 130.0e9, "Shear Modulus": 78.0e9}
+    tree = cube_deck(material, n=6, spacing=1e-3)
+    face = node_set_ids(tree, lambda x: x[:, 0] > 5e-3)
+    tree["Boundary Conditions"] = {
+        "Face Node Set": face,
+        "Impact": {"Type": "Initial Velocity", "Node Set": "Face Node Set", "Coordinate": "x", "Value": "-5.0"},
+    }
+    tree["Solver"] = {"Initial Time": 0.0, "Final Time": 1.0, "Verlet": {"Safety Factor": 3.0}}
+    tree["Output"] = {"Output Filename": "unstable", "Output Frequency": 5, "Output Variables": {"Displacement": True, "Velocity": True}}
+    steps = []
+    for ranks in (1, 2):
+        folder = tmp_path / str(ranks)
+        folder.mkdir()
+        (folder / "deck.yaml").write_text(dump_yaml(tree))
+        proc = mpirun(ranks, ["run", "deck.yaml", "-q"], folder, timeout=300)
+        assert proc.returncode == 3, proc.stderr[-3000:]
+        errors = [ln for ln in proc.stderr.splitlines() if ln.startswith("error:")]
+        assert len(errors) == 1, proc.stderr
+        assert "3.00 times the stable estimate" in errors[0] and "fastest at point" in errors[0]
+        steps.append(int(errors[0].split("at step ")[1].split()[0]))
+        frames = read_results(folder / "unstable.e")["times"]
+        assert len(frames) >= 1 and np.all(np.diff(frames) > 0)
+    assert steps[0] <= 50 and steps[1] == steps[0], steps
