@@ -44,6 +44,7 @@ def cmd_run(args) -> int:
     output_dir = Path(args.output_dir) if args.output_dir else Path.cwd()
     if comm.size > 1:
         return _run_parallel(args, comm, output_dir, wall0)
+    _prepare_output_dir(output_dir)
     deck = load_deck(args.deck)
     sim = Simulation(deck, comm=comm, output_dir=output_dir, progress=not args.no_progress)
     _log_setup(sim)
@@ -53,6 +54,16 @@ def cmd_run(args) -> int:
         sim.outputs.close()
     _log_summary(sim, time.perf_counter() - wall0)
     return ExitCode.OK
+
+
+def _prepare_output_dir(folder: Path) -> None:
+    """Create the --output-dir folder if needed (with its parents); InputError if impossible."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:
+        raise InputError(f"--output-dir {str(folder)!r} is a file, not a folder", fix="give a folder for the output files") from None
+    except OSError as exc:
+        raise InputError(f"cannot create the output folder {str(folder)!r}: {exc.strerror or exc}", fix="give a folder you can write to") from None
 
 
 def _agree_on_input(comm, action):
@@ -81,6 +92,7 @@ def _run_parallel(args, comm, output_dir: Path, wall0: float) -> int:
     from .core.engine import Simulation
 
     try:
+        _agree_on_input(comm, lambda: _prepare_output_dir(output_dir))
         deck = _agree_on_input(comm, lambda: load_deck(args.deck))
         sim = _agree_on_input(comm, lambda: Simulation(deck, comm=comm, output_dir=output_dir, progress=not args.no_progress and comm.rank == 0))
     except _ReportedInputError:
@@ -177,6 +189,8 @@ def _log_parallel(sim) -> None:
             "  rank %d: %d points, %d ghosts (%.1f%%), %d bonds, halo %.1f kB and %.3f ms per step, peak memory %.0f MiB",
             rank, owned, ghosts, 100.0 * ghosts / max(owned, 1), bonds, nbytes / 1e3, secs * 1e3, rss,
         )
+    if sim.overlap:
+        log.info("  halo messages overlapped with the computation of the points without ghost neighbors")
 
 
 # ------------------------------------------------------------------------------------------------

@@ -53,6 +53,9 @@ class Block:
     #: block computes this one's forces
     group: list["Block"] = field(default_factory=list)
     fused_view: BlockView | None = None  #: the view over the whole group (None: ``view``)
+    #: under MPI: the block's rows without ghost neighbors come first, [start, split), then
+    #: the rows with ghost neighbors, [split, stop) (see Simulation._order_points)
+    split: int = 0
 
     @property
     def density(self) -> float:
@@ -109,6 +112,16 @@ def bond_length_kernel(n, offsets, neighbors, x, zeta):
             dy = x[j, 1] - x[i, 1]
             dz = x[j, 2] - x[i, 2]
             zeta[b] = math.sqrt(dx * dx + dy * dy + dz * dz)
+
+
+@njit(cache=True)
+def foreign_neighbor_kernel(n, offsets, neighbors, owner, rank, out):
+    """out[i] = some neighbor of row i is owned by another rank."""
+    for i in range(n):
+        for b in range(offsets[i], offsets[i + 1]):
+            if owner[neighbors[b]] != rank:
+                out[i] = True
+                break
 
 
 @njit(cache=True)
@@ -320,7 +333,10 @@ class Simulation:
         sfc = space_filling_order(disc.x[owned]) if n_owned else np.zeros(0, np.int64)
         rank = np.empty(n_owned, dtype=np.int64)
         rank[sfc] = np.arange(n_owned)
-        row_order = np.lexsort((rank, self.block_index_mothership[owned]))  # owned row per new index
+        # under MPI the rows with a ghost neighbor go after the others within each block, so
+        # the others can be computed while the ghosts' values travel
+        boundary = self._has_ghost_neighbor(offsets, neighbors, n_owned)
+        row_order = np.lexsort((rank, boundary, self.block_index_mothership[owned]))  # owned row per new index
         owned_sorted = owned[row_order]
         if self.comm.size > 1 and neighbors.size:
             mask = np.zeros(disc.num_points, dtype=bool)
@@ -349,7 +365,18 @@ class Simulation:
         self.num_local = n_local
         counts = np.bincount(self.block_index[:n_owned], minlength=len(self.block_specs))
         self.block_ranges = np.concatenate([[0], np.cumsum(counts)])
+        interior = np.bincount(self.block_index[:n_owned][~boundary[row_order]], minlength=len(self.block_specs))
+        self.block_splits = self.block_ranges[:-1] + interior
         self.halo = self.comm.make_halo(order[n_owned:], self.owner[order[n_owned:]], np.arange(n_owned, n_local), new_of_old)
+
+    def _has_ghost_neighbor(self, offsets: np.ndarray, neighbors: np.ndarray, n_owned: int) -> np.ndarray:
+        """(n_owned,) bool: the owned row (rows of ``offsets``, mothership neighbor indices) has
+        a neighbor owned by another rank. All False in a serial run."""
+        if self.comm.size == 1 or not neighbors.size:
+            return np.zeros(n_owned, dtype=bool)
+        out = np.zeros(n_owned, dtype=np.bool_)
+        foreign_neighbor_kernel(n_owned, offsets, neighbors, self.owner, self.comm.rank, out)
+        return out
 
     def _create_models(self) -> None:
         deck = self.deck
@@ -383,6 +410,7 @@ class Simulation:
             blk = Block(k, name, bid, entry.material, material, damage, horizon, entry.horizon, path=entry.path)
             blk.damage_adopted = bool(damage is not None and material.adopt_damage(damage))
             blk.start, blk.stop = int(self.block_ranges[k]), int(self.block_ranges[k + 1])
+            blk.split = int(self.block_splits[k])
             self.blocks.append(blk)
         raise_collected(errors)
 
@@ -481,6 +509,13 @@ class Simulation:
                     blk.group = []
         covered = {blk.index for blk in self.blocks if blk.fused for blk in blk.group}
         self.generic_blocks = [blk for blk in self.blocks if blk.index not in covered]
+        # under MPI, compute the rows without ghost neighbors while the halo messages travel
+        # (needs fused blocks and models that promise to touch only a view's rows)
+        self.overlap = (
+            parallel
+            and not self.generic_blocks
+            and all(blk.material.row_local and (blk.damage is None or blk.damage.row_local) for blk in self.blocks)
+        )
         if self.generic_blocks:
             self.bond_force = np.zeros(nl.num_bonds)
             nl.transpose()
@@ -647,6 +682,8 @@ class Simulation:
 
     def evaluate_forces(self) -> np.ndarray:
         """Peridigm's evalModel: damage, precompute, force. Returns Force_Density (n, 3)."""
+        if self.overlap:
+            return self._evaluate_forces_overlapped()
         parallel = self.comm.size > 1
         if parallel:
             self.halo.exchange(self.fields["Coordinates"])
@@ -689,6 +726,53 @@ class Simulation:
                 gather_scalar_force_kernel(self.num_owned, self.num_local, nl.offsets, nl.neighbors, in_offsets, in_bonds, sources, y, vol, t, f)
                 self.halo.reverse_sum(f)
         return f
+
+    def _evaluate_forces_overlapped(self) -> np.ndarray:
+        """``evaluate_forces`` under MPI with fused, row-local models: each phase first computes
+        the rows without ghost neighbors while the ghosts' positions (then their precomputed
+        fields) travel, then the rest. Every row is computed exactly as without overlap."""
+        f = self.fields["Force_Density"]
+        halo = self.halo
+        if "Temperature_Change" in self.fields:
+            halo.exchange(self.fields["Temperature_Change"])
+        pending = halo.begin(self.fields["Coordinates"])
+        self._precompute_rows(interior=True)
+        halo.end(pending)
+        self._precompute_rows(interior=False)
+        names = dict.fromkeys(n for blk in self.blocks for n in blk.material.precompute_fields)
+        pending = [halo.begin(self.fields[name]) for name in names]
+        self._force_rows(f, interior=True)
+        for p in pending:
+            halo.end(p)
+        self._force_rows(f, interior=False)
+        return f
+
+    @staticmethod
+    def _rows_view(view: BlockView, blk: "Block", interior: bool) -> BlockView | None:
+        """The part of ``view`` (the view of ``blk``) without ghost neighbors, or the rest; None
+        when empty."""
+        if interior:
+            return replace(view, stop=blk.split) if blk.split > blk.start else None
+        return replace(view, start=blk.split) if blk.stop > blk.split else None
+
+    def _precompute_rows(self, interior: bool) -> None:
+        for blk in self.blocks:
+            view = self._rows_view(blk.view, blk, interior)
+            if view is None:
+                continue
+            if blk.damage_adopted:
+                blk.material.precompute_with_damage(view)
+            else:
+                if blk.damage is not None:
+                    blk.damage.update(view)
+                blk.material.precompute(view)
+
+    def _force_rows(self, f: np.ndarray, interior: bool) -> None:
+        for lead in self.blocks:
+            for blk in lead.group:  # the lead's material computes its whole group
+                view = self._rows_view(blk.view, blk, interior)
+                if view is not None and not lead.material.force_fused(view, f):
+                    raise RuntimeError(f"material {lead.material.name!r} declares row_local but its force_fused declined block {blk.name!r}")
 
     def apply_kinematic(self, t: float, t_prev: float) -> None:
         for c in self.kinematic:

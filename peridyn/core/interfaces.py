@@ -112,6 +112,12 @@ class Material(ABC):
     #: point fields ``precompute`` writes that the other end of a bond reads (under MPI they are
     #: exchanged to ghosts after every precompute; other halo fields once, after initialize)
     precompute_fields: ClassVar[tuple[str, ...]] = ()
+    #: True promises that ``precompute``, ``precompute_with_damage`` and ``force_fused`` write
+    #: only the view's rows ``start:stop`` and read of other points only their positions and
+    #: ``precompute_fields`` (and constant fields), and that ``force_fused`` returns True for
+    #: every closed view. The engine may then call them on parts of a block: under MPI, first
+    #: on the rows without ghost neighbors while the ghosts' values are on their way.
+    row_local: ClassVar[bool] = False
 
     def __init__(self, params: ModelParams, *, horizon: float | None, options: dict[str, Any] | None = None) -> None:
         self.params = params
@@ -191,6 +197,9 @@ class DamageModel(ABC):
     Params: ClassVar[type[ModelParams]]
     #: dtype of Bond_Damage: "uint8" for models whose bond damage is only ever 0 or 1
     bond_damage_dtype: ClassVar[str] = "float64"
+    #: True promises that ``update`` writes only the view's rows and their bonds and reads of
+    #: other points only their positions (see Material.row_local)
+    row_local: ClassVar[bool] = False
 
     def __init__(self, params: ModelParams, *, options: dict[str, Any] | None = None) -> None:
         self.params = params

@@ -10,7 +10,14 @@ from __future__ import annotations
 import numpy as np
 
 
-_HALO_TAG = 7101  # halo messages; every exchange completes before the next one starts
+_HALO_TAG = 7101  # halo messages; messages between two ranks with one tag arrive in order
+
+#: halo messages are split into pieces of at most this many bytes. A message below the MPI
+#: library's eager limit travels as soon as it is sent; a larger one waits for the sender to
+#: enter MPI again, so it could not overlap with the sender's computation (MPICH on shared
+#: memory: 8000-byte pieces arrive while the sender computes, 12000-byte ones do not).
+#: ``PERIDYN_HALO_MESSAGE_BYTES`` overrides it (0: one message per rank pair).
+HALO_MESSAGE_BYTES = 8000
 
 
 def _mpi():
@@ -19,12 +26,49 @@ def _mpi():
     return MPI
 
 
+def _message_bytes() -> int:
+    import os
+
+    value = os.environ.get("PERIDYN_HALO_MESSAGE_BYTES")
+    try:
+        return int(value) if value is not None else HALO_MESSAGE_BYTES
+    except ValueError:
+        return HALO_MESSAGE_BYTES
+
+
+class _Plan:
+    """Persistent requests of one exchange direction and width: buffers and messages set up
+    once, started and completed each time (two calls instead of one per message)."""
+
+    def __init__(self, halo: "Halo", forward: bool, width: int) -> None:
+        MPI = _mpi()
+        h = halo
+        counts_s, displs_s, counts_r, displs_r = (
+            (h.send_counts, h.send_displs, h.recv_counts, h.recv_displs) if forward else (h.recv_counts, h.recv_displs, h.send_counts, h.send_displs)
+        )
+        self.send = np.empty((int(np.sum(counts_s)), width), dtype=np.float64)
+        self.recv = np.empty((int(np.sum(counts_r)), width), dtype=np.float64)
+        self.requests = [h.comm.Recv_init([self.recv[lo : lo + n], MPI.DOUBLE], source=r, tag=_HALO_TAG) for r, lo, n in h._pieces(counts_r, displs_r, width)]
+        self.requests += [h.comm.Send_init([self.send[lo : lo + n], MPI.DOUBLE], dest=r, tag=_HALO_TAG) for r, lo, n in h._pieces(counts_s, displs_s, width)]
+        self.busy = False
+
+
+class PendingExchange:
+    """A halo exchange in flight (``Halo.begin``): messages started, ghosts not yet written."""
+
+    def __init__(self, array: np.ndarray, plan: _Plan) -> None:
+        self.array = array
+        self.plan = plan
+
+
 class Halo:
     """Communication plan between the owned points and ghost points of all ranks.
 
     send_index: local indices of owned points to send, grouped by destination rank
     (``send_counts``); recv_index: local indices of ghosts filled from each source rank, grouped
-    by source (``recv_counts``). Bytes moved per exchange are recorded in ``bytes_sent``.
+    by source (``recv_counts``). Bytes moved per exchange are recorded in ``bytes_sent``;
+    ``seconds`` is the time spent inside the exchanges (starting, waiting, copying), not the
+    computation that ``begin``/``end`` overlap with them.
     """
 
     def __init__(self, comm, send_index, send_counts, recv_index, recv_counts) -> None:
@@ -35,6 +79,8 @@ class Halo:
         self.recv_counts = np.asarray(recv_counts, dtype=np.int64)
         self.send_displs = np.concatenate([[0], np.cumsum(self.send_counts)[:-1]])
         self.recv_displs = np.concatenate([[0], np.cumsum(self.recv_counts)[:-1]])
+        self.message_bytes = _message_bytes()
+        self._plans: dict[tuple[bool, int], _Plan] = {}
         self.bytes_sent = 0
         self.exchanges = 0
         self.seconds = 0.0
@@ -43,46 +89,72 @@ class Halo:
     def num_ghosts(self) -> int:
         return int(self.recv_index.size)
 
-    def _alltoallv(self, send: np.ndarray, send_counts, send_displs, recv_counts, recv_displs, width: int) -> np.ndarray:
-        """Rows ``send[send_displs[r]:][:send_counts[r]]`` go to rank r; returns the rows
-        received from each rank r at ``recv_displs[r]``. Point-to-point messages to and from
-        the ranks with something to exchange only (a rank has a few neighbors whatever the
-        number of ranks; an MPI_Alltoallv would cost O(ranks) per call)."""
+    def _pieces(self, counts, displs, width: int):
+        """(rank, first row, rows) of every message: each rank's rows in pieces of at most
+        ``message_bytes`` bytes, in row order (the receiver posts the same pieces in the same
+        order, and MPI keeps the order of messages with one tag between two ranks). Messages go
+        to and come from the ranks with something to exchange only (a few neighbors whatever
+        the number of ranks; an MPI_Alltoallv would cost O(ranks))."""
+        per = max(1, self.message_bytes // (8 * width)) if self.message_bytes > 0 else None
+        for r in np.flatnonzero(counts):
+            lo, count = int(displs[r]), int(counts[r])
+            step = per or count
+            for k in range(0, count, step):
+                yield int(r), lo + k, min(step, count - k)
+
+    def _start(self, forward: bool, rows: np.ndarray, width: int) -> _Plan:
+        plan = self._plans.get((forward, width))
+        if plan is None or plan.busy:  # a second exchange of this width in flight gets its own
+            plan = _Plan(self, forward, width)
+            self._plans.setdefault((forward, width), plan)
+        plan.busy = True
+        plan.send[...] = rows.reshape(plan.send.shape)
+        _mpi().Prequest.Startall(plan.requests)
+        self.bytes_sent += plan.send.nbytes
+        self.exchanges += 1
+        return plan
+
+    def _finish(self, plan: _Plan) -> np.ndarray:
+        _mpi().Request.Waitall(plan.requests)
+        plan.busy = False
+        return plan.recv
+
+    def begin(self, array: np.ndarray) -> PendingExchange:
+        """Start refreshing the ghost rows of ``array`` (shape (n_local,) or (n_local, k)) from
+        their owners; compute what does not read ghosts, then call ``end``. The owned rows may
+        change in between (they were copied), the ghost rows must not be read."""
         import time
 
-        MPI = _mpi()
         t0 = time.perf_counter()
-        recv = np.empty((int(np.sum(recv_counts)), width), dtype=np.float64)
-        s = np.ascontiguousarray(send.reshape(-1, width), dtype=np.float64)
-        requests = []
-        for r in np.flatnonzero(recv_counts):
-            lo = int(recv_displs[r])
-            requests.append(self.comm.Irecv([recv[lo : lo + int(recv_counts[r])], MPI.DOUBLE], source=int(r), tag=_HALO_TAG))
-        for r in np.flatnonzero(send_counts):
-            lo = int(send_displs[r])
-            requests.append(self.comm.Isend([s[lo : lo + int(send_counts[r])], MPI.DOUBLE], dest=int(r), tag=_HALO_TAG))
-        MPI.Request.Waitall(requests)
-        self.bytes_sent += s.nbytes
-        self.exchanges += 1
+        width = 1 if array.ndim == 1 else int(np.prod(array.shape[1:]))
+        plan = self._start(True, array[self.send_index], width)
         self.seconds += time.perf_counter() - t0
-        return recv
+        return PendingExchange(array, plan)
+
+    def end(self, pending: PendingExchange) -> None:
+        """Wait for the messages of ``begin`` and write the ghost rows."""
+        import time
+
+        t0 = time.perf_counter()
+        recv = self._finish(pending.plan)
+        array = pending.array
+        array[self.recv_index] = recv.reshape((-1,) + array.shape[1:]).astype(array.dtype, copy=False)
+        self.seconds += time.perf_counter() - t0
 
     def exchange(self, array: np.ndarray) -> None:
         """Copy owners' values into the ghost rows of ``array`` (shape (n_local,) or (n_local, k))."""
-        width = 1 if array.ndim == 1 else int(np.prod(array.shape[1:]))
-        recv = self._alltoallv(array[self.send_index], self.send_counts, self.send_displs, self.recv_counts, self.recv_displs, width)
-        if array.ndim == 1:
-            array[self.recv_index] = recv[:, 0].astype(array.dtype, copy=False)
-        else:
-            array[self.recv_index] = recv.reshape((-1,) + array.shape[1:]).astype(array.dtype, copy=False)
+        self.end(self.begin(array))
 
     def reverse_sum(self, array: np.ndarray) -> None:
         """Add the ghost rows of ``array`` into their owners' rows (and leave the ghosts as they
         are): how contributions computed on a ghost reach the point's owner."""
+        import time
+
+        t0 = time.perf_counter()
         width = 1 if array.ndim == 1 else int(np.prod(array.shape[1:]))
-        recv = self._alltoallv(array[self.recv_index], self.recv_counts, self.recv_displs, self.send_counts, self.send_displs, width)
-        values = recv[:, 0] if array.ndim == 1 else recv.reshape((-1,) + array.shape[1:])
-        np.add.at(array, self.send_index, values)
+        recv = self._finish(self._start(False, array[self.recv_index], width))
+        np.add.at(array, self.send_index, recv.reshape((-1,) + array.shape[1:]))
+        self.seconds += time.perf_counter() - t0
 
 
 class MPIComm:

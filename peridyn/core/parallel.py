@@ -49,6 +49,12 @@ class NullHalo:
     def exchange(self, array) -> None:
         pass
 
+    def begin(self, array) -> None:
+        return None
+
+    def end(self, pending) -> None:
+        pass
+
     def reverse_sum(self, array) -> None:
         pass
 

@@ -66,6 +66,7 @@ class CriticalStretch(DamageModel):
     name = "Critical Stretch"
     Params = CriticalStretchParams
     bond_damage_dtype = "uint8"  # bonds are whole or broken: one byte per bond
+    row_local = True
     #: copy bond damage N into NP1 before each update (Peridigm's intent; see the time-dependent variant)
     copy_previous = True
 

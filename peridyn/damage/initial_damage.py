@@ -22,6 +22,7 @@ class InitialDamage(DamageModel):
     name = "Initial Damage"
     Params = InitialDamageParams
     bond_damage_dtype = "uint8"
+    row_local = True
 
     def initialize(self, block: BlockView) -> None:
         from ..core.bond_filters import flag_bonds, make_filter

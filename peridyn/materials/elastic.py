@@ -156,6 +156,27 @@ PACK_WIDTH = 6
 PACK_MIN_ROWS = 64  # smaller views (the finite-difference tangent's single points) read the arrays
 
 
+@njit(cache=True)
+def reach_kernel(start, stop, n_owned, offsets, neighbors):
+    """(lo1, hi1, lo2, hi2): the owned rows [lo1, hi1) (including [start, stop)) and the ghost
+    rows [lo2, hi2) (empty: 0, 0) the bonds of rows [start, stop) reach."""
+    lo1, hi1 = start, stop
+    lo2, hi2 = -1, -1
+    for b in range(offsets[start], offsets[stop]):
+        j = neighbors[b]
+        if j < n_owned:
+            lo1 = min(lo1, j)
+            hi1 = max(hi1, j + 1)
+        elif lo2 < 0:
+            lo2, hi2 = j, j + 1
+        else:
+            lo2 = min(lo2, j)
+            hi2 = max(hi2, j + 1)
+    if lo2 < 0:
+        lo2, hi2 = 0, 0
+    return lo1, hi1, lo2, hi2
+
+
 @njit(cache=True, parallel=True)
 def pack_points_kernel(lo1, hi1, lo2, hi2, y, volume, P):
     """P[i, 0:3] = y_i and P[i, 5] = V_i for the rows [lo1, hi1) and [lo2, hi2)."""
@@ -384,6 +405,7 @@ class Elastic(Material):
     name = "Elastic"
     Params = ElasticParams
     precompute_fields = ("Dilatation",)
+    row_local = True
 
     def __init__(self, params: ElasticParams, *, horizon: float | None, options=None) -> None:
         super().__init__(params, horizon=horizon, options=options)
@@ -474,12 +496,7 @@ class Elastic(Material):
         r = self._reaches.get(key)
         if r is None:
             nl = block.bonds
-            nb = nl.neighbors[nl.offsets[block.start] : nl.offsets[block.stop]]
-            owned, ghosts = nb[nb < block.num_owned], nb[nb >= block.num_owned]
-            lo1 = min(block.start, int(owned.min())) if owned.size else block.start
-            hi1 = max(block.stop, int(owned.max()) + 1) if owned.size else block.stop
-            lo2, hi2 = (int(ghosts.min()), int(ghosts.max()) + 1) if ghosts.size else (0, 0)
-            r = self._reaches[key] = (lo1, hi1, lo2, hi2)
+            r = self._reaches[key] = tuple(int(v) for v in reach_kernel(block.start, block.stop, block.num_owned, nl.offsets, nl.neighbors))
         return r
 
     def _packed(self, block: BlockView, coefficients: bool) -> np.ndarray:

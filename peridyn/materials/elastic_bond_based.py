@@ -132,6 +132,7 @@ class ElasticBondBased(Material):
 
     name = "Elastic Bond Based"
     Params = ElasticBondBasedParams
+    row_local = True
 
     def __init__(self, params: ElasticBondBasedParams, *, horizon: float | None, options=None) -> None:
         super().__init__(params, horizon=horizon, options=options)

@@ -92,6 +92,19 @@ def test_bad_input_is_one_line_exit_2_and_leaves_output_alone(deck, capsys):
     assert (deck.parent / "run.e").read_bytes() == before
 
 
+def test_output_dir_is_created_with_its_parents(deck, capsys):
+    assert main(["run", str(deck), "--no-progress", "--output-dir", "results/run1"]) == ExitCode.OK
+    assert (deck.parent / "results" / "run1" / "run.e").is_file()
+
+
+def test_output_dir_that_is_a_file_is_an_input_error(deck, capsys):
+    (deck.parent / "taken").write_text("not a folder")
+    assert main(["run", str(deck), "--output-dir", "taken"]) == ExitCode.INPUT_ERROR
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--output-dir 'taken' is a file" in err[0] and "Traceback" not in err[0]
+    assert (deck.parent / "taken").read_text() == "not a folder"
+
+
 def test_missing_deck_file(tmp_path, capsys):
     assert main(["run", str(tmp_path / "nope.yaml")]) == ExitCode.INPUT_ERROR
     assert "nope.yaml" in capsys.readouterr().err
