@@ -8,6 +8,9 @@ machine type: cube40_lps 75.4 s on one process, 36.3 s on 2 ranks.
 
     python benchmarks/parallel.py [--decks cube40_lps cube40_lps_damage] [--repeat 3] [--skip-scaling]
 
+Measured 2026-11-22 (medians of 3): cube40_lps 26.9 s -> 14.2 s at 2 ranks (1.90x), cube40_lps_damage
+34.0 s -> 18.3 s (1.86x); see docs/parallel.md.
+
 Each configuration runs ``--repeat`` times, the configurations interleaved round by round so a
 busy spell of the (shared) host does not fall on one of them only. The speed-ups are reported
 from the best times (the least disturbed runs) and from the medians. Two ranks are more exposed
