@@ -513,15 +513,19 @@ class Elastic(Material):
             pack_points_kernel(lo1, hi1, lo2, hi2, s["Coordinates"], s["Volume"], self._P)
         return self._P
 
-    def _coefficients(self, block: BlockView) -> tuple[np.ndarray, np.ndarray]:
+    def _coefficients(self, block: BlockView, reach: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """a and c of the view's rows and the ghosts, or (``reach``: what a fused kernel reads,
+        both ends of every bond) of every row the view's bonds reach."""
         s = block.fields
         n = s.num_points
         if self._a is None or self._a.shape[0] != n:
             self._a = np.zeros(n)
             self._c = np.zeros(n)
-        coefficients_kernel(block.start, block.stop, s["Weighted_Volume"], s["Dilatation"], self.K, self.mu, self._a, self._c)
-        if n > block.num_owned:  # ghosts (MPI): their dilatation and weighted volume are exchanged
-            coefficients_kernel(block.num_owned, n, s["Weighted_Volume"], s["Dilatation"], self.K, self.mu, self._a, self._c)
+        lo1, hi1, lo2, hi2 = self._reach(block) if reach else (block.start, block.stop, block.num_owned, n)
+        m, theta = s["Weighted_Volume"], s["Dilatation"]
+        coefficients_kernel(lo1, hi1, m, theta, self.K, self.mu, self._a, self._c)
+        if hi2 > lo2:  # ghosts (MPI): their dilatation and weighted volume are exchanged
+            coefficients_kernel(lo2, hi2, m, theta, self.K, self.mu, self._a, self._c)
         return self._a, self._c
 
     def force_state(self, block: BlockView, t: np.ndarray) -> None:
@@ -548,7 +552,7 @@ class Elastic(Material):
                 block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], self._packed(block, True), damage, force_density
             )
             return True
-        a, c = self._coefficients(block)
+        a, c = self._coefficients(block, reach=True)
         fused_force_kernel(
             block.start, block.stop, nl.offsets, nl.neighbors, reverse, s["Bond_Length"], s["Coordinates"], s["Volume"],
             a, c, kind, delta, table, damage, dT, aT, force_density,

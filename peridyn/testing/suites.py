@@ -21,6 +21,28 @@ def _rotation(angle: float, axis) -> np.ndarray:
     return np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * k @ k
 
 
+def forces_in_parts(sim, fraction: float = 0.37) -> np.ndarray:
+    """Force densities computed as the engine does under MPI with halo overlap: every block in
+    two parts (its first ``fraction`` of rows, then the rest), each phase (damage and
+    precompute, then force) on the first part before the second. Force_Density and the
+    precompute fields start as NaN, so a model that reads rows it has not computed yet, or
+    writes outside its view, shows. Only for blocks whose models declare ``row_local``."""
+    splits = [blk.split for blk in sim.blocks]
+    overlap = sim.overlap
+    try:
+        for blk in sim.blocks:
+            blk.split = blk.start + int(fraction * (blk.stop - blk.start))
+        sim.fields["Force_Density"][:] = np.nan
+        for name in dict.fromkeys(n for blk in sim.blocks for n in blk.material.precompute_fields):
+            sim.fields[name][:] = np.nan
+        sim.overlap = True
+        return sim.evaluate_forces().copy()
+    finally:
+        sim.overlap = overlap
+        for blk, split in zip(sim.blocks, splits):
+            blk.split = split
+
+
 class MaterialConformance:
     """Checks for a material. Set ``material`` (deck name) and ``params`` (deck parameters
     without ``Material Model``); ``plugins`` lists plugin modules to register when the package
@@ -110,6 +132,21 @@ class MaterialConformance:
         generic = self.force(sim)
         np.testing.assert_allclose(generic, fused, rtol=1e-12, atol=1e-12 * float(np.abs(fused).max()))
 
+    def test_row_local_parts_give_the_same_forces(self):
+        """A material that declares ``row_local`` may be computed in parts (under MPI: the
+        points without ghost neighbors while the halo messages travel); the forces must be the
+        ones of the whole block, bit for bit."""
+        sim = self.simulation()
+        blk = sim.blocks[0]
+        if not (blk.material.row_local and blk.fused):
+            pytest.skip("the material does not declare row_local, or the block is not fused")
+        for fraction in (0.0, 0.37, 0.81, 1.0):
+            self.deform(sim, seed=8)
+            self.force(sim)  # whatever a model caches now belongs to another configuration
+            self.deform(sim, seed=7)
+            parts = forces_in_parts(sim, fraction)
+            np.testing.assert_array_equal(parts, self.force(sim))
+
     def test_thread_count_does_not_change_results(self):
         import numba
 
@@ -197,6 +234,26 @@ class DamageConformance:
         blk.fused = False
         generic = sim.evaluate_forces().copy()
         np.testing.assert_allclose(generic, fused, rtol=1e-12, atol=1e-12 * float(np.abs(fused).max()))
+
+    def test_row_local_parts_give_the_same_damage_and_forces(self):
+        """With ``row_local`` models, computing each block in two parts (as under MPI with halo
+        overlap) gives the same damage and forces as the whole block, with broken bonds."""
+        sim = self.simulation()
+        blk = sim.blocks[0]
+        if not (blk.material.row_local and blk.fused and blk.damage.row_local):
+            pytest.skip("the models do not declare row_local, or the block is not fused")
+        x = sim.fields["Model_Coordinates"]
+        sim.fields["Coordinates"][:] = x * (1.0 + 0.1 * self.breaking_strain)
+        sim.evaluate_forces()  # whatever a model caches now belongs to another configuration
+        rng = np.random.default_rng(12)
+        sim.fields["Coordinates"][:] = x * (1.0 + self.breaking_strain * rng.random(x.shape))
+        parts = forces_in_parts(sim, 0.41)
+        d = sim.fields["Bond_Damage"].copy()
+        damage = sim.fields["Damage"].copy()
+        assert 0.0 < float(np.mean(d)) < 1.0, "some bonds, not all, should break"
+        np.testing.assert_array_equal(parts, sim.evaluate_forces())
+        np.testing.assert_array_equal(sim.fields["Bond_Damage"], d)
+        np.testing.assert_array_equal(sim.fields["Damage"], damage)
 
     def test_large_stretch_breaks_bonds_for_good(self):
         sim = self.simulation()
