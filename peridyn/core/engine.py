@@ -413,6 +413,8 @@ class Simulation:
             blk.split = int(self.block_splits[k])
             self.blocks.append(blk)
         raise_collected(errors)
+        #: point fields some material's precompute writes (exchanged to ghosts after it)
+        self.precompute_fields = list(dict.fromkeys(n for blk in self.blocks for n in blk.material.precompute_fields))
 
     # -- fields --------------------------------------------------------------------------------
     def _declare_fields(self) -> None:
@@ -698,7 +700,7 @@ class Simulation:
             else:
                 blk.material.precompute(blk.view)
         if parallel:
-            for name in dict.fromkeys(n for blk in self.blocks for n in blk.material.precompute_fields):
+            for name in self.precompute_fields:
                 self.halo.exchange(self.fields[name])
         f = self.fields["Force_Density"]
         pending = []
@@ -739,8 +741,7 @@ class Simulation:
         self._precompute_rows(interior=True)
         halo.end(pending)
         self._precompute_rows(interior=False)
-        names = dict.fromkeys(n for blk in self.blocks for n in blk.material.precompute_fields)
-        pending = [halo.begin(self.fields[name]) for name in names]
+        pending = [halo.begin(self.fields[name]) for name in self.precompute_fields]
         self._force_rows(f, interior=True)
         for p in pending:
             halo.end(p)
@@ -748,16 +749,15 @@ class Simulation:
         return f
 
     @staticmethod
-    def _rows_view(view: BlockView, blk: "Block", interior: bool) -> BlockView | None:
-        """The part of ``view`` (the view of ``blk``) without ghost neighbors, or the rest; None
-        when empty."""
+    def _rows_view(blk: "Block", interior: bool) -> BlockView | None:
+        """The part of ``blk``'s view without ghost neighbors, or the rest; None when empty."""
         if interior:
-            return replace(view, stop=blk.split) if blk.split > blk.start else None
-        return replace(view, start=blk.split) if blk.stop > blk.split else None
+            return replace(blk.view, stop=blk.split) if blk.split > blk.start else None
+        return replace(blk.view, start=blk.split) if blk.stop > blk.split else None
 
     def _precompute_rows(self, interior: bool) -> None:
         for blk in self.blocks:
-            view = self._rows_view(blk.view, blk, interior)
+            view = self._rows_view(blk, interior)
             if view is None:
                 continue
             if blk.damage_adopted:
@@ -770,7 +770,7 @@ class Simulation:
     def _force_rows(self, f: np.ndarray, interior: bool) -> None:
         for lead in self.blocks:
             for blk in lead.group:  # the lead's material computes its whole group
-                view = self._rows_view(blk.view, blk, interior)
+                view = self._rows_view(blk, interior)
                 if view is not None and not lead.material.force_fused(view, f):
                     raise RuntimeError(f"material {lead.material.name!r} declares row_local but its force_fused declined block {blk.name!r}")
 

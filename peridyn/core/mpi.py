@@ -7,6 +7,8 @@ else is a global reduction or a gather of output to rank 0.
 """
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 
@@ -80,7 +82,7 @@ class Halo:
         self.send_displs = np.concatenate([[0], np.cumsum(self.send_counts)[:-1]])
         self.recv_displs = np.concatenate([[0], np.cumsum(self.recv_counts)[:-1]])
         self.message_bytes = _message_bytes()
-        self._plans: dict[tuple[bool, int], _Plan] = {}
+        self._plans: dict[tuple[bool, int], list[_Plan]] = {}  # by (direction, width); one per exchange in flight
         self.bytes_sent = 0
         self.exchanges = 0
         self.seconds = 0.0
@@ -103,10 +105,11 @@ class Halo:
                 yield int(r), lo + k, min(step, count - k)
 
     def _start(self, forward: bool, rows: np.ndarray, width: int) -> _Plan:
-        plan = self._plans.get((forward, width))
-        if plan is None or plan.busy:  # a second exchange of this width in flight gets its own
+        plans = self._plans.setdefault((forward, width), [])
+        plan = next((p for p in plans if not p.busy), None)
+        if plan is None:  # first exchange of this shape, or all of its plans are in flight
             plan = _Plan(self, forward, width)
-            self._plans.setdefault((forward, width), plan)
+            plans.append(plan)
         plan.busy = True
         plan.send[...] = rows.reshape(plan.send.shape)
         _mpi().Prequest.Startall(plan.requests)
@@ -123,8 +126,6 @@ class Halo:
         """Start refreshing the ghost rows of ``array`` (shape (n_local,) or (n_local, k)) from
         their owners; compute what does not read ghosts, then call ``end``. The owned rows may
         change in between (they were copied), the ghost rows must not be read."""
-        import time
-
         t0 = time.perf_counter()
         width = 1 if array.ndim == 1 else int(np.prod(array.shape[1:]))
         plan = self._start(True, array[self.send_index], width)
@@ -133,8 +134,6 @@ class Halo:
 
     def end(self, pending: PendingExchange) -> None:
         """Wait for the messages of ``begin`` and write the ghost rows."""
-        import time
-
         t0 = time.perf_counter()
         recv = self._finish(pending.plan)
         array = pending.array
@@ -148,8 +147,6 @@ class Halo:
     def reverse_sum(self, array: np.ndarray) -> None:
         """Add the ghost rows of ``array`` into their owners' rows (and leave the ghosts as they
         are): how contributions computed on a ghost reach the point's owner."""
-        import time
-
         t0 = time.perf_counter()
         width = 1 if array.ndim == 1 else int(np.prod(array.shape[1:]))
         recv = self._finish(self._start(False, array[self.recv_index], width))

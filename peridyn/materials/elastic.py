@@ -133,18 +133,21 @@ def dilatation_stretch_damage_kernel(start, stop, offsets, neighbors, zeta, P, m
         theta[i] = acc / m[i] if m[i] != 0.0 else 0.0
 
 
+@njit(cache=True, inline="always", error_model="numpy")
+def point_coefficients(m, theta, K, mu):
+    """Force-state coefficients of one point: a = 15 mu / m, c = theta (3 K / m - a / 3), so
+    that t_ij = (1-d) omega (c_i zeta + (1-d) a_i e). Zero for a point without neighbors."""
+    if m == 0.0:
+        return 0.0, 0.0
+    a = (15.0 * mu) / m
+    return a, theta * ((3.0 * K) / m - a / 3.0)
+
+
 @njit(cache=True, parallel=True, error_model="numpy")
 def coefficients_kernel(start, stop, m, theta, K, mu, a, c):
-    """Per-point force-state coefficients: a_i = 15 mu / m_i, c_i = theta_i (3 K / m_i - a_i / 3),
-    so that t_ij = (1-d) omega (c_i zeta + (1-d) a_i e). Zero for points without neighbors."""
+    """``point_coefficients`` of the points [start, stop) into a and c."""
     for i in prange(start, stop):
-        if m[i] == 0.0:
-            a[i] = 0.0
-            c[i] = 0.0
-        else:
-            ai = (15.0 * mu) / m[i]
-            a[i] = ai
-            c[i] = theta[i] * ((3.0 * K) / m[i] - ai / 3.0)
+        a[i], c[i] = point_coefficients(m[i], theta[i], K, mu)
 
 
 # Packed point records for the hot kernels: row i of P (n_local, 6) holds (y_x, y_y, y_z, a_i,
@@ -191,7 +194,7 @@ def pack_points_kernel(lo1, hi1, lo2, hi2, y, volume, P):
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def pack_force_points_kernel(lo1, hi1, lo2, hi2, y, volume, m, theta, K, mu, P):
-    """The whole record (y, a, c as in ``coefficients_kernel``, V) of the rows [lo1, hi1) and
+    """The whole record (y, a, c from ``point_coefficients``, V) of the rows [lo1, hi1) and
     [lo2, hi2)."""
     n1 = hi1 - lo1
     for k in prange(n1 + (hi2 - lo2)):
@@ -199,13 +202,7 @@ def pack_force_points_kernel(lo1, hi1, lo2, hi2, y, volume, m, theta, K, mu, P):
         P[i, 0] = y[i, 0]
         P[i, 1] = y[i, 1]
         P[i, 2] = y[i, 2]
-        if m[i] == 0.0:
-            P[i, 3] = 0.0
-            P[i, 4] = 0.0
-        else:
-            ai = (15.0 * mu) / m[i]
-            P[i, 3] = ai
-            P[i, 4] = theta[i] * ((3.0 * K) / m[i] - ai / 3.0)
+        P[i, 3], P[i, 4] = point_coefficients(m[i], theta[i], K, mu)
         P[i, 5] = volume[i]
 
 

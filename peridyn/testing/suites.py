@@ -33,7 +33,7 @@ def forces_in_parts(sim, fraction: float = 0.37) -> np.ndarray:
         for blk in sim.blocks:
             blk.split = blk.start + int(fraction * (blk.stop - blk.start))
         sim.fields["Force_Density"][:] = np.nan
-        for name in dict.fromkeys(n for blk in sim.blocks for n in blk.material.precompute_fields):
+        for name in sim.precompute_fields:
             sim.fields[name][:] = np.nan
         sim.overlap = True
         return sim.evaluate_forces().copy()
