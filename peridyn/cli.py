@@ -9,7 +9,7 @@ import sys
 import time
 from pathlib import Path
 
-from .errors import ExitCode, InputError, InstabilityError, PeridynError
+from .core.errors import ExitCode, InputError, InstabilityError, PeridynError
 
 log = logging.getLogger("peridyn")
 
@@ -34,9 +34,9 @@ def _report_input_error(exc: InputError) -> None:
 
 # ------------------------------------------------------------------------------------------------
 def cmd_run(args) -> int:
-    from .core.deck import load_deck
-    from .core.engine import Simulation
-    from .core.parallel import get_comm
+    from .deck.model import load_deck
+    from .engine.simulation import Simulation
+    from .parallel.comm import get_comm
 
     comm = get_comm()
     _setup_logging(args.verbose - args.quiet, comm.rank)
@@ -88,8 +88,8 @@ class _ReportedInputError(Exception):
 
 
 def _run_parallel(args, comm, output_dir: Path, wall0: float) -> int:
-    from .core.deck import load_deck
-    from .core.engine import Simulation
+    from .deck.model import load_deck
+    from .engine.simulation import Simulation
 
     try:
         _agree_on_input(comm, lambda: _prepare_output_dir(output_dir))
@@ -197,8 +197,8 @@ def _log_parallel(sim) -> None:
 def cmd_check(args) -> int:
     import numpy as np
 
-    from .core.deck import load_deck
-    from .core.engine import Simulation
+    from .deck.model import load_deck
+    from .engine.simulation import Simulation
 
     _setup_logging(args.verbose - args.quiet)
     deck = load_deck(args.deck)
@@ -267,7 +267,7 @@ def cmd_plugins(args) -> int:
 
 
 def cmd_schema(args) -> int:
-    from .core.schema import deck_json_schema
+    from .deck.schema import deck_json_schema
 
     text = json.dumps(deck_json_schema(), indent=2)
     if args.output:
@@ -278,7 +278,7 @@ def cmd_schema(args) -> int:
 
 
 def cmd_convert(args) -> int:
-    from .io.deckfile import convert
+    from .deck.files import convert
 
     convert(args.input, args.output)
     print(f"wrote {args.output}")
@@ -349,7 +349,7 @@ def _single_threaded_blas() -> None:
     do not compete for cores (see docs/parallel.md)."""
     for var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS", "VECLIB_MAXIMUM_THREADS"):
         os.environ.setdefault(var, "1")
-    from .core.parallel import launched_with_mpi, ranks_on_this_node
+    from .parallel.comm import launched_with_mpi, ranks_on_this_node
 
     if launched_with_mpi():
         cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)

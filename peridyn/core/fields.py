@@ -155,3 +155,19 @@ class FieldStore:
 
     def nbytes(self) -> int:
         return sum(a.nbytes for a in self._np1.values()) + sum(a.nbytes for a in self._n.values())
+
+
+TENSOR_SUFFIXES = ("XX", "XY", "XZ", "YX", "YY", "YZ", "ZX", "ZY", "ZZ")
+
+
+def component_names(spec: FieldSpec, name: str | None = None) -> list[str]:
+    """Exodus names of a field's components: V -> VX VY VZ, T -> TXX..TZZ, others _1.._n."""
+    name = name or spec.name
+    n = int(spec.length)
+    if n == 1:
+        return [name]
+    if n == 3:
+        return [name + c for c in "XYZ"]
+    if n == 9:
+        return [name + c for c in TENSOR_SUFFIXES]
+    return [f"{name}_{k + 1}" for k in range(n)]

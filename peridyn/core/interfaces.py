@@ -12,17 +12,15 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import Any, ClassVar, Protocol
 
 import numpy as np
 
 from .fields import FieldSpec, FieldStore
 from .params import ModelParams
 
-if TYPE_CHECKING:  # pragma: no cover
-    from .discretization import Discretization
-    from .engine import Simulation
-    from .neighbors import NeighborList
+from .bonds import NeighborList
+from .discretization import Discretization
 
 
 # ------------------------------------------------------------------------------------------------
@@ -235,6 +233,54 @@ class DamageModel(ABC):
     @abstractmethod
     def update(self, block: BlockView) -> None:
         """Update ``Bond_Damage`` (NP1) and ``Damage`` (NP1) of the block's points."""
+
+
+# ------------------------------------------------------------------------------------------------
+# What computes, contact models and solvers see of a simulation
+# ------------------------------------------------------------------------------------------------
+class Simulation(Protocol):
+    """The part of the engine's simulation (:class:`peridyn.engine.simulation.Simulation`) that
+    computes, contact models and solvers use. Arrays are over local points: owned points
+    ``0:num_owned`` first (grouped by block), then ghosts up to ``num_local`` (MPI only).
+    """
+
+    fields: FieldStore  #: every allocated field, by name (``fields["Velocity"]``: (num_local, 3))
+    bonds: NeighborList  #: CSR bonds over local points
+    blocks: list[Any]  #: blocks in deck order; each has ``view`` (a BlockView), ``material``, ``damage``
+    comm: Any  #: communicator: ``rank``, ``size``, ``allreduce_sum``, ``allreduce_max``, ...
+    num_owned: int
+    num_local: int
+    num_global: int  #: points in the whole model
+    time: float  #: current time (T)
+    time_prev: float
+    gid: np.ndarray  #: (num_local,) int64 0-based global ids
+    stats: dict[str, Any]  #: run statistics a solver records for the end-of-run summary
+    deck: Any  #: the validated deck (peridyn.deck.model.Deck)
+    discretization: Discretization  #: the points as read, in mothership order
+    mothership_of_local: np.ndarray  #: (num_local,) int64 mothership index of each local point
+    local_of_mothership: np.ndarray  #: (num_global,) int64 local index, -1 where not on this rank
+    node_sets: dict[str, np.ndarray]  #: node set name -> mothership indices
+    prescribed_dofs: np.ndarray  #: (num_local, 3) bool, components a kinematic condition sets
+    delta_u: np.ndarray | None  #: (num_local, 3) displacement increment of the implicit solvers
+    output_dir: Any  #: folder of the output files (pathlib.Path)
+
+    def evaluate_forces(self) -> np.ndarray:
+        """Internal force density (num_owned, 3) at the current positions (M L^-2 T^-2)."""
+
+    def apply_kinematic(self, t: float, t_prev: float) -> None:
+        """Apply prescribed displacements and temperatures for the step t_prev -> t."""
+
+    def apply_body_forces(self, t: float) -> None:
+        """Set the external force density of the body-force conditions at time t."""
+
+    def critical_time_step(self) -> float:
+        """The Silling-Askari stable time step of the model (T)."""
+
+    def write_output(self, t: float) -> None:
+        """Write every output whose frequency is due at time t."""
+
+    def advance(self) -> None:
+        """End of a step: the NP1 state becomes the N state."""
 
 
 # ------------------------------------------------------------------------------------------------

@@ -15,7 +15,7 @@ from numba import njit, prange
 from pydantic import Field, field_validator
 
 from ..core.bondmath import stretch_exceeds
-from ..core.fields import FieldSpec, Relation, Temporal
+from ..core.fields import FieldSpec, Relation
 from ..core.interfaces import BlockView, DamageModel
 from ..core.params import ModelParams
 
@@ -117,7 +117,7 @@ class TimeDependentCriticalStretchParams(ModelParams):
     @field_validator("time_dependent_critical_stretch")
     @classmethod
     def _compiles(cls, v):
-        from ..core.expressions import compile_expression
+        from ..deck.expressions import compile_expression
 
         compile_expression(repr(v) if isinstance(v, float) else v, ("t",))  # ExpressionError is a ValueError
         return v
@@ -139,7 +139,7 @@ class TimeDependentCriticalStretch(CriticalStretch):
 
     def __init__(self, params, *, options=None) -> None:
         super().__init__(params, options=options)
-        from ..core.expressions import compile_expression
+        from ..deck.expressions import compile_expression
 
         value = params.time_dependent_critical_stretch
         self.expr = compile_expression(repr(value) if isinstance(value, float) else value, ("t",))

@@ -25,7 +25,7 @@ class InitialDamage(DamageModel):
     row_local = True
 
     def initialize(self, block: BlockView) -> None:
-        from ..core.bond_filters import flag_bonds, make_filter
+        from ..geometry.bond_filters import flag_bonds, make_filter
 
         s, nl = block.fields, block.bonds
         deck_dir = self.options.get("deck_dir")

@@ -35,7 +35,7 @@ from pydantic import Field
 from ..core.discretization import Discretization
 from ..core.interfaces import DiscretizationReader
 from ..core.params import ModelParams
-from ..errors import InputError
+from ..core.errors import InputError
 from .nodesets import find_input_file
 from .textfile import min_element_radius
 

@@ -12,7 +12,7 @@ from typing import Any
 import netCDF4
 import numpy as np
 
-from peridyn.errors import InputError
+from ..core.errors import InputError
 
 __all__ = ["read_nodal_variable", "read_results"]
 
@@ -75,7 +75,7 @@ def read_nodal_variable(path: str | Path, name: str) -> tuple[np.ndarray, np.nda
     values: (nt, num_nodes) the variable at each step, in file node order.
     node_num_map: (num_nodes,) 1-based node IDs in file node order (1..n when the file has no map).
 
-    Raises :class:`~peridyn.errors.InputError` naming the available nodal variables when the file
+    Raises :class:`~peridyn.core.errors.InputError` naming the available nodal variables when the file
     has none called ``name``, or when the file cannot be read.
     """
     ds = _open(path)

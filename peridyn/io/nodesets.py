@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from ..core.errors import InputError
 
 __all__ = ["find_input_file", "is_node_set_file_name", "parse_node_set_value", "read_node_set_file"]
 

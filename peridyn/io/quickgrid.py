@@ -45,7 +45,7 @@ from pydantic import Field, model_validator
 from ..core.discretization import Discretization
 from ..core.interfaces import DiscretizationReader
 from ..core.params import ModelParams
-from ..errors import InputError
+from ..core.errors import InputError
 
 __all__ = [
     "PdQuickGrid",

@@ -24,7 +24,7 @@ from pydantic import Field
 from ..core.discretization import Discretization
 from ..core.interfaces import DiscretizationReader
 from ..core.params import ModelParams
-from ..errors import InputError
+from ..core.errors import InputError
 from .nodesets import find_input_file
 
 __all__ = ["TextFile", "TextFileParams", "read_text_mesh", "min_element_radius"]

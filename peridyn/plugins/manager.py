@@ -17,7 +17,7 @@ from typing import Any
 
 import pluggy
 
-from ..errors import InputError
+from ..core.errors import InputError
 from . import hookspecs
 
 log = logging.getLogger("peridyn.plugins")

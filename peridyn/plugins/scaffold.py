@@ -7,7 +7,7 @@ import re
 from importlib import resources
 from pathlib import Path
 
-from ..errors import InputError
+from ..core.errors import InputError
 
 KINDS = ("material", "damage", "contact", "compute")
 

@@ -9,7 +9,7 @@ from numba import njit
 from pydantic import Field
 
 from ..core.params import ModelParams
-from ..errors import InstabilityError
+from ..core.errors import InstabilityError
 
 log = logging.getLogger("peridyn.solver")
 

@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from ..errors import InputError
+from ..core.errors import InputError
 from .linear import norm_inf, seq_dot, seq_norm2
 from .tangent import TangentMatrix
 

@@ -46,7 +46,7 @@ from pydantic import ConfigDict, Field, model_validator
 
 from ..core.interfaces import Solver
 from ..core.params import ModelParams
-from ..errors import InputError, PeridynError, ExitCode
+from ..core.errors import PeridynError, ExitCode
 from .common import SolverSection
 from .linear import aztec_gmres, gdot, gnorm
 from .newton import ImplicitProblem, threads_for, load_times, solver_stats

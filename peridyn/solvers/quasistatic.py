@@ -41,7 +41,7 @@ from pydantic import Field, field_validator, model_validator
 
 from ..core.interfaces import Solver
 from ..core.params import ModelParams
-from ..errors import InputError, InstabilityError
+from ..core.errors import InstabilityError
 from .common import SolverSection
 from .linear import METHODS, LinearSolver
 from .newton import ImplicitProblem, threads_for, check_time_steps, load_times, solver_stats

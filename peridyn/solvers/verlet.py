@@ -17,7 +17,7 @@ from pydantic import Field
 
 from ..core.interfaces import Solver
 from ..core.params import ModelParams
-from ..core.progress import Progress
+from .progress import Progress
 from .common import EnergyMonitor, SolverSection
 
 log = logging.getLogger("peridyn.solver")
@@ -44,7 +44,7 @@ class Verlet(Solver):
         if p.safety_factor is not None:
             dt = dt * p.safety_factor
         if not math.isfinite(dt) or dt <= 0:
-            from ..errors import InputError
+            from ..core.errors import InputError
 
             raise InputError(
                 "cannot estimate a stable time step: no point has a neighbor",

@@ -56,9 +56,9 @@ def cube_deck(
 def build_simulation(tree: dict[str, Any], *, directory: str | Path = ".", registry=None, output_dir: str | Path | None = None):
     """Validate a deck tree (as loaded from YAML, without the ``Peridigm`` key) and build the
     model, ready for solvers. File names in the deck are relative to ``directory``."""
-    from ..core.deck import parse_deck
-    from ..core.engine import Simulation
-    from ..io.deckfile import DeckSource
+    from ..deck.model import parse_deck
+    from ..engine.simulation import Simulation
+    from ..deck.source import DeckSource
 
     directory = Path(directory)
     source = DeckSource(copy.deepcopy(tree), directory / "<memory>.yaml", "yaml", {})

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from peridyn.cli import main
-from peridyn.errors import ExitCode
-from peridyn.io.deckfile import dump_yaml, load_deck_file
+from peridyn.core.errors import ExitCode
+from peridyn.deck.files import dump_yaml, load_deck_file
 from peridyn.io.exodus_reader import read_results
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from peridyn.io.deckfile import dump_yaml
+from peridyn.deck.files import dump_yaml
 from peridyn.io.exodus_reader import read_results
 from peridyn.testing import build_simulation, cube_deck
 from peridyn.testing.mpi import MPIEXEC, mpirun, requires_mpi
@@ -208,10 +208,10 @@ CHECK = textwrap.dedent(
     import copy, json, sys
     from pathlib import Path
     import numpy as np
-    from peridyn.core.deck import parse_deck
-    from peridyn.core.engine import Simulation
-    from peridyn.core.parallel import get_comm
-    from peridyn.io.deckfile import DeckSource
+    from peridyn.deck.model import parse_deck
+    from peridyn.engine.simulation import Simulation
+    from peridyn.parallel.comm import get_comm
+    from peridyn.deck.source import DeckSource
     from peridyn.solvers.linear import LinearSolver, aztec_gmres, belos_cg, gmres, pcg
     from peridyn.solvers.tangent import TangentMatrix
 

@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from peridyn.io.deckfile import dump_yaml
+from peridyn.deck.files import dump_yaml
 from peridyn.io.exodus_reader import read_results
 from peridyn.testing import cube_deck
 

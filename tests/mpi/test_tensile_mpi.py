@@ -3,7 +3,7 @@ user would (Block_Data reactions and Nearest_Point_Data gauges are global output
 import numpy as np
 import pytest
 
-from peridyn.io.deckfile import dump_yaml
+from peridyn.deck.files import dump_yaml
 from peridyn.io.exodus_reader import read_results
 from peridyn.testing.mpi import mpirun, requires_mpi
 from peridyn.testing.tensile import GAUGE_LABELS, REACTION_LABELS, tensile_bar, youngs_modulus_from_outputs

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from peridyn.cli import main
-from peridyn.errors import ExitCode
+from peridyn.core.errors import ExitCode
 from peridyn.io.exodus_reader import read_results
 
 DATA = Path(__file__).resolve().parent / "data"

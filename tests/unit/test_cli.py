@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from peridyn.cli import main
-from peridyn.errors import ExitCode
+from peridyn.core.errors import ExitCode
 
 DECK = textwrap.dedent(
     """
@@ -151,7 +151,7 @@ def test_convert_round_trip(tmp_path, capsys):
     xml.write_text('<ParameterList><ParameterList name="Materials"><ParameterList name="M">'
                    '<Parameter name="Density" type="double" value="1.0"/></ParameterList></ParameterList></ParameterList>')
     assert main(["convert", str(xml), str(tmp_path / "d.yaml")]) == ExitCode.OK
-    from peridyn.io.deckfile import load_deck_file
+    from peridyn.deck.files import load_deck_file
 
     assert load_deck_file(tmp_path / "d.yaml").tree == {"Materials": {"M": {"Density": 1.0}}}
 

@@ -24,7 +24,7 @@ import pytest
 import yaml
 
 from peridyn.cli import main
-from peridyn.errors import ExitCode
+from peridyn.core.errors import ExitCode
 from peridyn.io.exodus_reader import read_results
 from peridyn.solvers.quasistatic import LoadStepError
 from peridyn.testing import build_simulation, cube_deck, node_set_ids

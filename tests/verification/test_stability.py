@@ -5,7 +5,7 @@ import logging
 import numpy as np
 import pytest
 
-from peridyn.errors import InstabilityError
+from peridyn.core.errors import InstabilityError
 from peridyn.solvers.verlet import Verlet, VerletSection
 from peridyn.testing import build_simulation, cube_deck
 

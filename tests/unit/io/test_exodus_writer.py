@@ -14,7 +14,7 @@ import netCDF4
 import numpy as np
 import pytest
 
-from peridyn.errors import InputError
+from peridyn.core.errors import InputError
 from peridyn.io.exodus_reader import read_nodal_variable, read_results
 from peridyn.io.exodus_writer import ExodusBlock, ExodusWriter
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_array_equal
 
-from peridyn.errors import InputError
+from peridyn.core.errors import InputError
 from peridyn.io.nodesets import find_input_file, is_node_set_file_name, parse_node_set_value, read_node_set_file
 
 SHARED = Path(__file__).resolve().parents[3].parent / "shared"

@@ -11,7 +11,7 @@ import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 from pydantic import ValidationError
 
-from peridyn.errors import InputError
+from peridyn.core.errors import InputError
 from peridyn.io.quickgrid import (
     PdQuickGrid,
     PdQuickGridParams,

@@ -9,7 +9,7 @@ import pytest
 from numpy.testing import assert_array_equal
 from pydantic import ValidationError
 
-from peridyn.errors import InputError
+from peridyn.core.errors import InputError
 from peridyn.io.textfile import TextFile, TextFileParams, min_element_radius, read_text_mesh
 
 SHARED = Path(__file__).resolve().parents[3].parent / "shared"

@@ -7,7 +7,7 @@ import textwrap
 import numpy as np
 import pytest
 
-from peridyn.errors import InputError
+from peridyn.core.errors import InputError
 from peridyn.plugins import manager
 from peridyn.testing import build_simulation, cube_deck
 

@@ -6,7 +6,7 @@ import sys
 import pytest
 
 from peridyn.cli import main
-from peridyn.errors import ExitCode
+from peridyn.core.errors import ExitCode
 
 
 @pytest.mark.parametrize("kind", ["material", "damage", "contact", "compute"])

@@ -4,7 +4,7 @@ linear-solver choices."""
 import numpy as np
 import pytest
 
-from peridyn.errors import InputError
+from peridyn.core.errors import InputError
 
 
 def bar_deck(h, solver, *, damage=False, shape=(6, 3, 3), pull=0.01):

@@ -98,7 +98,7 @@ def test_preconditioned_cg_reaches_the_direct_solution(system):
 def test_reductions_without_a_communicator_are_numpys():
     """gsum / gdot / gnorm with no communicator (or a one-process one) return numpy's values
     unchanged: the serial arithmetic of the solvers does not change."""
-    from peridyn.core.parallel import SerialComm
+    from peridyn.parallel.comm import SerialComm
 
     rng = np.random.default_rng(3)
     a, c = rng.standard_normal(1000), rng.standard_normal(1000)

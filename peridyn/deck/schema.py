@@ -6,7 +6,7 @@ import copy
 from typing import Any
 
 from ..plugins.manager import get_registry
-from .deck import BlockParams, DataLoaderParams, OutputParams
+from .model import BlockParams, DataLoaderParams, OutputParams
 
 
 def _model(cls, defs: dict) -> dict:

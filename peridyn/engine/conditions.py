@@ -12,15 +12,16 @@ Expressions are evaluated at the points' *reference* coordinates.
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 from pydantic import Field, field_validator
 
-from .params import ModelParams
-
-if TYPE_CHECKING:  # pragma: no cover
-    from .engine import Simulation
+from ..core.errors import InputError, raise_collected
+from ..core.fields import FieldSpec, Length, Relation
+from ..core.interfaces import Simulation
+from ..core.params import ModelParams
+from ..deck.model import tidy
 
 COMPONENT = {"x": 0, "y": 1, "z": 2}
 
@@ -67,7 +68,7 @@ class BoundaryCondition:
     scalar: ClassVar[bool] = False
 
     def __init__(self, params: BCParams, *, entry_name: str = "") -> None:
-        from .expressions import compile_expression
+        from ..deck.expressions import compile_expression
 
         self.params = params
         self.entry_name = entry_name
@@ -79,7 +80,7 @@ class BoundaryCondition:
     @classmethod
     def check(cls, params: BCParams) -> list[str]:
         """Problems beyond the schema (one message each)."""
-        from .expressions import ExpressionError, compile_expression
+        from ..deck.expressions import ExpressionError, compile_expression
 
         problems = []
         try:
@@ -204,4 +205,95 @@ class BodyForce(BoundaryCondition):
 
 
 BUILTIN_CONDITIONS = (InitialVelocity, InitialDisplacement, InitialTemperature, PrescribedDisplacement, PrescribedTemperature, BodyForce)
+
+
+# ------------------------------------------------------------------------------------------------
+# Binding the deck's node sets and conditions to a simulation
+# ------------------------------------------------------------------------------------------------
+def create_conditions(sim: Any) -> None:
+    """Resolve the deck's node sets (mothership indices) into ``sim.node_sets`` and bind its
+    boundary conditions to this rank's points (``sim.conditions``, ``sim.kinematic``,
+    ``sim.force_conditions``, ``sim.prescribed_dofs``)."""
+    deck = sim.deck
+    from ..io.nodesets import parse_node_set_value
+
+    disc = sim.discretization
+    gid_order = np.argsort(disc.gid, kind="stable")
+    sorted_gid = disc.gid[gid_order]
+    sim.node_sets: dict[str, np.ndarray] = {}  # tidied name -> mothership indices (duplicates kept)
+    errors: list[InputError] = []
+    for name, entry in deck.node_sets.items():
+        try:
+            ids = parse_node_set_value(entry.value, deck_dir=deck.directory, path=entry.path, deck_file=deck.file)
+        except InputError as exc:
+            errors.append(exc)
+            continue
+        wanted = np.asarray(ids, dtype=np.int64) - 1
+        where = np.clip(np.searchsorted(sorted_gid, wanted), 0, max(len(sorted_gid) - 1, 0))
+        found = (sorted_gid[where] == wanted) if len(sorted_gid) else np.zeros(len(wanted), bool)
+        missing = [int(i) for i in np.asarray(ids)[~found]]
+        if missing:
+            errors.append(
+                InputError(
+                    f"node set lists point(s) {', '.join(map(str, missing[:5]))}{'...' if len(missing) > 5 else ''} that do not exist",
+                    file=deck.file,
+                    path=entry.path,
+                    fix=f"point numbers are 1-based global ids ({sim.num_global} points)",
+                )
+            )
+            continue
+        sim.node_sets[name] = gid_order[where].astype(np.int64)
+    for raw_name, members in disc.node_sets.items():
+        name = tidy(raw_name)
+        if name in sim.node_sets:
+            errors.append(InputError(f"node set {raw_name!r} is defined both in the deck and in the mesh", file=deck.file, path=("Boundary Conditions",), fix="rename the deck's node set"))
+            continue
+        sim.node_sets[name] = np.asarray(members, dtype=np.int64)
+    if rank_deficient_node_set(sim):
+        sim.node_sets.setdefault("RANK_DEFICIENT_NODES", np.zeros(0, dtype=np.int64))
+    sim.conditions = []
+    for bc in deck.boundary_conditions:
+        ns = tidy(bc.params.node_set)
+        if ns not in sim.node_sets:
+            errors.append(
+                InputError(
+                    f"unknown node set {bc.params.node_set!r}",
+                    file=deck.file,
+                    path=bc.path + ("Node Set",),
+                    fix=f"node sets: {', '.join(sorted(sim.node_sets)) or 'none'}",
+                )
+            )
+            continue
+        obj = bc.cls(bc.params, entry_name=bc.name)
+        members = sim.local_of_mothership[sim.node_sets[ns]]
+        members = members[(members >= 0) & (members < sim.num_owned)]  # this rank's points
+        obj.bind(np.unique(members) if obj.stage != "initial" else members, sim.discretization.x[sim.mothership_of_local])
+        sim.conditions.append(obj)
+    raise_collected(errors)
+    for obj in sim.conditions:
+        if obj.target == "temperature":
+            sim.fields.declare(FieldSpec("Temperature", Relation.NODE))
+            if obj.stage == "kinematic":
+                sim.fields.declare(FieldSpec("Temperature_Change", Relation.NODE, halo=True))
+        if obj.target == "body_force":
+            sim.fields.declare(FieldSpec("External_Force_Density", Relation.NODE, Length.VECTOR))
+    sim.kinematic = [c for c in sim.conditions if c.stage == "kinematic"]
+    sim.force_conditions = [c for c in sim.conditions if c.stage == "force"]
+    sim.prescribed_points = np.unique(np.concatenate([c.points for c in sim.kinematic if c.target == "displacement"] or [np.zeros(0, np.int64)]))
+    #: (n, 3) bool, True on displacement components a kinematic condition prescribes
+    sim.prescribed_dofs = np.zeros((sim.num_local, 3), dtype=bool)
+    for c in sim.kinematic:
+        if c.target == "displacement":
+            sim.prescribed_dofs[c.points, c.component] = True
+
+def rank_deficient_node_set(sim: Any) -> bool:
+    """Peridigm creates an empty RANK_DEFICIENT_NODES node set (and writes it to Exodus) when
+    the run allocates a full tangent and a block has a damage model (PERIDIGM_SEMANTICS.md
+    §1.4). Solvers say what they need through ``tangent_request(params)``: "full" or
+    "block diagonal" when the deck asks for one, "default" (full unless another solver asks
+    for a block-diagonal one), None for no tangent."""
+    if not any(entry.damage_model is not None for entry in sim.deck.blocks):
+        return False
+    requests = [getattr(e.cls, "tangent_request", lambda params: None)(e.params) for e in sim.deck.solvers]
+    return "full" in requests or ("default" in requests and "block diagonal" not in requests)
 

@@ -8,7 +8,7 @@ from typing import Any, TypeVar
 
 from pydantic import BaseModel, ValidationError
 
-from ..errors import InputError
+from ..core.errors import InputError
 
 log = logging.getLogger("peridyn.deck")
 

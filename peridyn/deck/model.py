@@ -20,10 +20,10 @@ from typing import Any
 
 from pydantic import Field
 
-from ..errors import InputError, raise_collected
-from ..io.deckfile import SECTION_NAMES
+from ..core.errors import InputError, raise_collected
+from .source import SECTION_NAMES
 from ..plugins.manager import Registry, get_registry
-from .params import ModelParams
+from ..core.params import ModelParams
 from .validation import validate_params
 
 log = logging.getLogger("peridyn.deck")
@@ -186,14 +186,14 @@ class Deck:
 # ------------------------------------------------------------------------------------------------
 def load_deck(path: str | Path, registry: Registry | None = None) -> Deck:
     """Read and validate a deck; raise InputError(s) naming every problem."""
-    from ..io.deckfile import load_deck_file
+    from .files import load_deck_file
 
     source = load_deck_file(path)
     return parse_deck(source, registry)
 
 
 def parse_deck(source, registry: Registry | None = None) -> Deck:
-    """Validate an already-read :class:`~peridyn.io.deckfile.DeckSource`."""
+    """Validate an already-read :class:`~peridyn.deck.source.DeckSource`."""
     registry = registry or get_registry()
     file = str(source.path)
     tree = source.tree

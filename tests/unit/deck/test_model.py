@@ -3,8 +3,8 @@ import textwrap
 
 import pytest
 
-from peridyn.core.deck import load_deck, tidy
-from peridyn.errors import InputError
+from peridyn.deck.model import load_deck, tidy
+from peridyn.core.errors import InputError
 
 GOOD = """
 Peridigm:

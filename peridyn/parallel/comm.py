@@ -1,7 +1,7 @@
 """The only code that knows about ranks (DESIGN.md decision 5).
 
 A serial run uses :class:`SerialComm` and never imports mpi4py. A run started by an MPI
-launcher with more than one process gets an MPI communicator (``peridyn.core.mpi``).
+launcher with more than one process gets an MPI communicator (``peridyn.parallel.mpi``).
 """
 from __future__ import annotations
 
@@ -111,7 +111,7 @@ class SerialComm:
 def get_comm():
     """The communicator of this process: MPI when launched with several ranks, else serial."""
     if launched_with_mpi():
-        from .mpi import MPIComm  # imported only under an MPI launcher
+        from .mpi import MPIComm
 
         return MPIComm()
     return SerialComm()

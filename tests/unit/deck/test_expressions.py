@@ -1,4 +1,4 @@
-"""Tests of peridyn.core.expressions (Peridigm's RTCompiler function strings)."""
+"""Tests of peridyn.deck.expressions (Peridigm's RTCompiler function strings)."""
 from __future__ import annotations
 
 import math
@@ -13,7 +13,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose, assert_array_equal
 
-from peridyn.core.expressions import (
+from peridyn.deck.expressions import (
     Expression,
     ExpressionError,
     compile_expression,

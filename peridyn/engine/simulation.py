@@ -11,149 +11,30 @@ from __future__ import annotations
 import logging
 import math
 import time as _time
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numba import njit, prange
 
-from ..errors import InputError, raise_collected
-from .deck import Deck, ModelEntry, tidy
-from .fields import FieldSpec, FieldStore, Relation, Temporal
-from .influence import InfluenceFunction
-from .interfaces import BlockView, DamageModel, Material
-from .parallel import SerialComm
+from ..core.errors import InputError, raise_collected
+from ..core.fields import FieldSpec, FieldStore, Length, Relation
+from ..core.interfaces import BlockView
+from ..deck.model import Deck, ModelEntry
+from ..geometry.influence import InfluenceFunction
+from ..parallel.comm import SerialComm
+from .blocks import Block, plan_fusion
+from .conditions import create_conditions
+from .kernels import (
+    bond_length_kernel,
+    critical_time_step_kernel,
+    foreign_neighbor_kernel,
+    gather_scalar_force_kernel,
+)
 
 log = logging.getLogger("peridyn.engine")
 
-VECTOR = 3
 
-
-@dataclass
-class Block:
-    """One block of the model: its points (a local range), material and damage model."""
-
-    index: int
-    name: str
-    block_id: int
-    material_name: str
-    material: Material
-    damage: DamageModel | None
-    horizon: float | None  #: constant horizon, or None when it varies in space
-    horizon_text: str | float
-    start: int = 0
-    stop: int = 0
-    fused: bool = False
-    damage_adopted: bool = False  #: the material applies the damage model's rule in its own loop
-    view: BlockView | None = None
-    path: tuple[str, ...] = ()
-    #: blocks whose forces this block's fused kernel computes: itself, or a run of neighboring
-    #: blocks with the same models and horizon (see Simulation._check_fusion); empty when another
-    #: block computes this one's forces
-    group: list["Block"] = field(default_factory=list)
-    fused_view: BlockView | None = None  #: the view over the whole group (None: ``view``)
-    #: under MPI: the block's rows without ghost neighbors come first, [start, split), then
-    #: the rows with ghost neighbors, [split, stop) (see Simulation._order_points)
-    split: int = 0
-
-    @property
-    def density(self) -> float:
-        return self.material.density
-
-
-# ------------------------------------------------------------------------------------------------
-# kernels
-# ------------------------------------------------------------------------------------------------
-@njit(cache=True, parallel=True, error_model="numpy")
-def gather_scalar_force_kernel(start, stop, offsets, neighbors, in_offsets, in_bonds, sources, y, volume, t, f):
-    """f_i = sum_{b out of i} t_b e_b V_j - sum_{b into i} t_b e_b V_src(b) for i in [start, stop):
-    the force density from scalar (central) force states, both bond ends, gathered per point.
-    Shapes: y (n, 3); volume (n,); t (nb,); f (n, 3)."""
-    for i in prange(start, stop):
-        fx = 0.0
-        fy = 0.0
-        fz = 0.0
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            ex = y[j, 0] - y[i, 0]
-            ey = y[j, 1] - y[i, 1]
-            ez = y[j, 2] - y[i, 2]
-            L = math.sqrt(ex * ex + ey * ey + ez * ez)
-            if L > 0.0:
-                s = (t[b] * volume[j]) / L
-                fx += s * ex
-                fy += s * ey
-                fz += s * ez
-        for k in range(in_offsets[i], in_offsets[i + 1]):
-            b = in_bonds[k]
-            j = sources[b]
-            ex = y[j, 0] - y[i, 0]
-            ey = y[j, 1] - y[i, 1]
-            ez = y[j, 2] - y[i, 2]
-            L = math.sqrt(ex * ex + ey * ey + ez * ez)
-            if L > 0.0:
-                s = (t[b] * volume[j]) / L
-                fx += s * ex
-                fy += s * ey
-                fz += s * ez
-        f[i, 0] = fx
-        f[i, 1] = fy
-        f[i, 2] = fz
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
-def bond_length_kernel(n, offsets, neighbors, x, zeta):
-    """zeta[b] = |x_j - x_i| for every bond b = i->j, as ((dx dx + dy dy) + dz dz)^(1/2)."""
-    for i in prange(n):
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            dx = x[j, 0] - x[i, 0]
-            dy = x[j, 1] - x[i, 1]
-            dz = x[j, 2] - x[i, 2]
-            zeta[b] = math.sqrt(dx * dx + dy * dy + dz * dz)
-
-
-@njit(cache=True)
-def foreign_neighbor_kernel(n, offsets, neighbors, owner, rank, out):
-    """out[i] = some neighbor of row i is owned by another rank."""
-    for i in range(n):
-        for b in range(offsets[i], offsets[i + 1]):
-            if owner[neighbors[b]] != rank:
-                out[i] = True
-                break
-
-
-@njit(cache=True)
-def crossing_blocks_kernel(n, offsets, neighbors, block_index, open_mask):
-    """open_mask[k] = True for every block with a bond leaving or entering it."""
-    for i in range(n):
-        bi = block_index[i]
-        for b in range(offsets[i], offsets[i + 1]):
-            bj = block_index[neighbors[b]]
-            if bj != bi:
-                open_mask[bi] = True
-                open_mask[bj] = True
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
-def critical_time_step_kernel(start, stop, offsets, neighbors, x, volume, density, c_const, c_point, dt):
-    """dt_i = sqrt(2 rho / sum_j V_j c / |xi|) (Silling-Askari), inf for isolated points.
-    c_point (n,) overrides c_const when non-empty (variable horizons)."""
-    per_point = c_point.shape[0] > 0
-    for i in prange(start, stop):
-        c = c_point[i] if per_point else c_const
-        acc = 0.0
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            dx = x[i, 0] - x[j, 0]
-            dy = x[i, 1] - x[j, 1]
-            dz = x[i, 2] - x[j, 2]
-            acc += (volume[j] * c) / math.sqrt(dx * dx + dy * dy + dz * dz)
-        dt[i] = math.sqrt((2.0 * density) / acc) if acc > 0.0 else np.inf
-
-
-# ------------------------------------------------------------------------------------------------
 class Simulation:
     """A model built from a deck, ready for solvers.
 
@@ -202,14 +83,14 @@ class Simulation:
         self._order_points(disc, offsets, neighbors, horizon)
         self._create_models()
         self._declare_fields()
-        self._create_conditions()
+        create_conditions(self)
         from .output import OutputManager
 
         self.outputs = OutputManager(self)
         self._declare_fields_late()
         self._fill_fields(disc)
         self._make_views()
-        self._check_fusion()
+        plan_fusion(self)
         self.num_bonds_global = int(self.comm.allreduce_sum(int(self.bonds.num_bonds)))
         self._warn_isolated()
         self._apply_initial_conditions()
@@ -274,7 +155,7 @@ class Simulation:
         self.block_index_mothership = np.array([index_of_id[b] for b in disc.block_id], dtype=np.int64) if disc.num_points else np.zeros(0, np.int64)
 
     def _point_horizons(self, disc) -> np.ndarray:
-        from .expressions import compile_expression
+        from ..deck.expressions import compile_expression
 
         horizon = np.empty(disc.num_points)
         for k, (name, bid, entry) in enumerate(self.block_specs):
@@ -296,14 +177,17 @@ class Simulation:
         """Owner rank of every point (all zeros in a serial run)."""
         if self.comm.size == 1:
             return np.zeros(disc.num_points, dtype=np.int64)
-        from .decomposition import bond_weights, recursive_coordinate_bisection
+        from ..geometry.decomposition import (
+            bond_weights,
+            recursive_coordinate_bisection,
+        )
 
         return recursive_coordinate_bisection(disc.x, bond_weights(disc.volume, horizon), self.comm.size)
 
     def _build_neighbors(self, disc, horizon):
         """Neighbor lists (CSR rows in the order of ``self.owned_mothership``, entries mothership
         indices) of the points this rank owns."""
-        from .neighbors import omit_bonds_between_blocks, radius_search
+        from ..geometry.neighbors import omit_bonds_between_blocks, radius_search
 
         self.owner = self._decompose(disc, horizon)
         points = np.nonzero(self.owner == self.comm.rank)[0].astype(np.int64)
@@ -315,7 +199,7 @@ class Simulation:
             offsets, neighbors = radius_search(disc.x, horizon, points, dtype=np.int32)
         dentry = self.deck.discretization
         if dentry.bond_filters:
-            from .bond_filters import apply_bond_filters, make_filter
+            from ..geometry.bond_filters import apply_bond_filters, make_filter
 
             filters = [make_filter(raw, deck_dir=self.deck.directory, path=path) for _, raw, path in dentry.bond_filters]
             offsets, neighbors = apply_bond_filters(disc.x, offsets, neighbors, filters, rows=points)
@@ -326,7 +210,8 @@ class Simulation:
     def _order_points(self, disc, offsets, neighbors, horizon) -> None:
         """Local order: owned points by block, then along a space-filling curve; then ghosts (by
         owner, then global id). Rows are sorted by global id; ghosts have empty rows."""
-        from .neighbors import NeighborList, renumber, sort_rows, space_filling_order
+        from ..core.bonds import NeighborList
+        from ..geometry.neighbors import renumber, sort_rows, space_filling_order
 
         owned = self.owned_mothership
         n_owned = owned.size
@@ -421,7 +306,7 @@ class Simulation:
         store = FieldStore(self.num_local, self.bonds.num_bonds)
         self.fields = store
         for name in ("Model_Coordinates", "Coordinates", "Displacement", "Velocity", "Force_Density"):
-            store.declare(FieldSpec(name, Relation.NODE, VECTOR))
+            store.declare(FieldSpec(name, Relation.NODE, Length.VECTOR))
         store.declare(FieldSpec("Volume", Relation.ELEMENT))
         # reference bond lengths: every bond kernel needs them; computing them once saves a
         # square root and two gathers per bond per pass (8 bytes per bond)
@@ -467,90 +352,6 @@ class Simulation:
                 influence=self.influence,
             )
 
-    def _check_fusion(self) -> None:
-        """A block is fused (one kernel computes both ends of its bonds) when no bond crosses
-        its boundary in either direction, its horizon is constant and its families are
-        symmetric. Neighboring blocks with the same models (equal parameters) and the same
-        constant horizon form one group, fused as a whole when no bond leaves the group: a deck
-        that splits one material into several blocks (grips and gauge section, say) keeps the
-        fused kernel."""
-        nl = self.bonds
-        groups = self._fusion_groups()
-        group_of_block = np.zeros(len(self.blocks), dtype=np.int64)
-        for g, members in enumerate(groups):
-            for blk in members:
-                group_of_block[blk.index] = g
-        open_mask = np.zeros(len(groups), dtype=np.bool_)
-        if len(groups) > 1 and nl.num_bonds:
-            crossing_blocks_kernel(self.num_owned, nl.offsets, nl.neighbors, group_of_block[self.block_index], open_mask)
-        open_mask = self.comm.allreduce_max(open_mask.astype(np.int64)) > 0
-        maybe_one_sided = bool(self.deck.discretization.bond_filters)
-        parallel = self.comm.size > 1
-        reverse = None
-        for g, members in enumerate(groups):
-            lead = members[0]
-            start, stop = lead.start, members[-1].stop
-            fused = not open_mask[g] and lead.horizon is not None
-            if parallel:
-                # a ghost's bond back to an owned point lives on another rank: both ends can be
-                # computed here only when they provably agree (symmetric or no damage)
-                fused = fused and not maybe_one_sided and (lead.damage is None or lead.damage.symmetric)
-            elif fused and maybe_one_sided and stop > start:
-                if reverse is None:
-                    reverse = nl.reverse()
-                fused = bool(np.all(reverse[nl.offsets[start] : nl.offsets[stop]] >= 0))
-            for blk in members:
-                blk.view.closed = fused
-                blk.fused = fused and blk is lead
-                blk.group = [blk]
-                blk.fused_view = None
-            if fused and len(members) > 1:
-                lead.group = list(members)
-                lead.fused_view = replace(lead.view, stop=stop, name="+".join(b.name for b in members))
-                for blk in members[1:]:
-                    blk.group = []
-        covered = {blk.index for blk in self.blocks if blk.fused for blk in blk.group}
-        self.generic_blocks = [blk for blk in self.blocks if blk.index not in covered]
-        # under MPI, compute the rows without ghost neighbors while the halo messages travel
-        # (needs fused blocks and models that promise to touch only a view's rows)
-        self.overlap = (
-            parallel
-            and not self.generic_blocks
-            and all(blk.material.row_local and (blk.damage is None or blk.damage.row_local) for blk in self.blocks)
-        )
-        if self.generic_blocks:
-            self.bond_force = np.zeros(nl.num_bonds)
-            nl.transpose()
-            nl.sources()
-        else:
-            self.bond_force = None
-
-    def _fusion_groups(self) -> list[list["Block"]]:
-        """Runs of consecutive blocks (contiguous point ranges) that one fused kernel may
-        compute together: same material and damage model classes with equal parameters, the
-        same constant horizon, no per-bond influence table and the same damage treatment."""
-
-        def signature(blk):
-            d = blk.damage
-            return (
-                type(blk.material), blk.material.params, None if d is None else (type(d), d.params),
-                blk.horizon, blk.damage_adopted,
-            )
-
-        groups: list[list[Block]] = []
-        table = bool(getattr(self.influence, "needs_table", False))
-        for blk in self.blocks:
-            if (
-                groups
-                and not table
-                and blk.horizon is not None
-                and groups[-1][-1].stop == blk.start
-                and signature(groups[-1][-1]) == signature(blk)
-            ):
-                groups[-1].append(blk)
-            else:
-                groups.append([blk])
-        return groups
 
     def _warn_isolated(self) -> None:
         counts = self.bonds.counts()[: self.num_owned]
@@ -566,90 +367,6 @@ class Simulation:
             )
 
     # -- conditions ----------------------------------------------------------------------------
-    def _create_conditions(self) -> None:
-        deck = self.deck
-        from ..io.nodesets import parse_node_set_value
-
-        disc = self.discretization
-        gid_order = np.argsort(disc.gid, kind="stable")
-        sorted_gid = disc.gid[gid_order]
-        self.node_sets: dict[str, np.ndarray] = {}  # tidied name -> mothership indices (duplicates kept)
-        errors: list[InputError] = []
-        for name, entry in deck.node_sets.items():
-            try:
-                ids = parse_node_set_value(entry.value, deck_dir=deck.directory, path=entry.path, deck_file=deck.file)
-            except InputError as exc:
-                errors.append(exc)
-                continue
-            wanted = np.asarray(ids, dtype=np.int64) - 1
-            where = np.clip(np.searchsorted(sorted_gid, wanted), 0, max(len(sorted_gid) - 1, 0))
-            found = (sorted_gid[where] == wanted) if len(sorted_gid) else np.zeros(len(wanted), bool)
-            missing = [int(i) for i in np.asarray(ids)[~found]]
-            if missing:
-                errors.append(
-                    InputError(
-                        f"node set lists point(s) {', '.join(map(str, missing[:5]))}{'...' if len(missing) > 5 else ''} that do not exist",
-                        file=deck.file,
-                        path=entry.path,
-                        fix=f"point numbers are 1-based global ids ({self.num_global} points)",
-                    )
-                )
-                continue
-            self.node_sets[name] = gid_order[where].astype(np.int64)
-        for raw_name, members in disc.node_sets.items():
-            name = tidy(raw_name)
-            if name in self.node_sets:
-                errors.append(InputError(f"node set {raw_name!r} is defined both in the deck and in the mesh", file=deck.file, path=("Boundary Conditions",), fix="rename the deck's node set"))
-                continue
-            self.node_sets[name] = np.asarray(members, dtype=np.int64)
-        if self._rank_deficient_node_set():
-            self.node_sets.setdefault("RANK_DEFICIENT_NODES", np.zeros(0, dtype=np.int64))
-        self.conditions = []
-        for bc in deck.boundary_conditions:
-            ns = tidy(bc.params.node_set)
-            if ns not in self.node_sets:
-                errors.append(
-                    InputError(
-                        f"unknown node set {bc.params.node_set!r}",
-                        file=deck.file,
-                        path=bc.path + ("Node Set",),
-                        fix=f"node sets: {', '.join(sorted(self.node_sets)) or 'none'}",
-                    )
-                )
-                continue
-            obj = bc.cls(bc.params, entry_name=bc.name)
-            members = self.local_of_mothership[self.node_sets[ns]]
-            members = members[(members >= 0) & (members < self.num_owned)]  # this rank's points
-            obj.bind(np.unique(members) if obj.stage != "initial" else members, self._reference_x())
-            self.conditions.append(obj)
-        raise_collected(errors)
-        for obj in self.conditions:
-            if obj.target == "temperature":
-                self.fields.declare(FieldSpec("Temperature", Relation.NODE))
-                if obj.stage == "kinematic":
-                    self.fields.declare(FieldSpec("Temperature_Change", Relation.NODE, halo=True))
-            if obj.target == "body_force":
-                self.fields.declare(FieldSpec("External_Force_Density", Relation.NODE, VECTOR))
-        self.kinematic = [c for c in self.conditions if c.stage == "kinematic"]
-        self.force_conditions = [c for c in self.conditions if c.stage == "force"]
-        self.prescribed_points = np.unique(np.concatenate([c.points for c in self.kinematic if c.target == "displacement"] or [np.zeros(0, np.int64)]))
-        #: (n, 3) bool, True on displacement components a kinematic condition prescribes
-        self.prescribed_dofs = np.zeros((self.num_local, 3), dtype=bool)
-        for c in self.kinematic:
-            if c.target == "displacement":
-                self.prescribed_dofs[c.points, c.component] = True
-
-    def _rank_deficient_node_set(self) -> bool:
-        """Peridigm creates an empty RANK_DEFICIENT_NODES node set (and writes it to Exodus) when
-        the run allocates a full tangent and a block has a damage model (PERIDIGM_SEMANTICS.md
-        §1.4). Solvers say what they need through ``tangent_request(params)``: "full" or
-        "block diagonal" when the deck asks for one, "default" (full unless another solver asks
-        for a block-diagonal one), None for no tangent."""
-        if not any(entry.damage_model is not None for entry in self.deck.blocks):
-            return False
-        requests = [getattr(e.cls, "tangent_request", lambda params: None)(e.params) for e in self.deck.solvers]
-        return "full" in requests or ("default" in requests and "block diagonal" not in requests)
-
     def _reference_x(self) -> np.ndarray:
         return self.discretization.x[self.mothership_of_local]
 

@@ -1,12 +1,12 @@
-"""Neighbor search and CSR bond structure (peridyn.core.neighbors)."""
+"""Neighbor search and CSR bond structure (peridyn.geometry.neighbors, peridyn.core.bonds)."""
 from __future__ import annotations
 
 import numba
 import numpy as np
 import pytest
 
-from peridyn.core.neighbors import (
-    NeighborList,
+from peridyn.core.bonds import NeighborList
+from peridyn.geometry.neighbors import (
     compact,
     hilbert_keys,
     omit_bonds_between_blocks,

@@ -1,4 +1,4 @@
-"""Tests of peridyn.io.deckfile: Teuchos typing, both formats, line numbers, dump/convert."""
+"""Tests of peridyn.deck (source, readers, files): Teuchos typing, both formats, line numbers, dump/convert."""
 from __future__ import annotations
 
 import logging
@@ -10,18 +10,11 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from peridyn.errors import InputError
-from peridyn.io.deckfile import (
-    INT_MAX,
-    INT_MIN,
-    DeckSource,
-    convert,
-    dump_yaml,
-    infer_scalar,
-    load_deck_file,
-    parse_xml_text,
-    parse_yaml_text,
-)
+from peridyn.core.errors import InputError
+from peridyn.deck.source import INT_MAX, INT_MIN, DeckSource, infer_scalar
+from peridyn.deck.files import convert, dump_yaml, load_deck_file
+from peridyn.deck.xml_reader import parse_xml_text
+from peridyn.deck.yaml_reader import parse_yaml_text
 
 SHARED = Path(__file__).resolve().parents[3].parent / "shared"
 CASES = SHARED / "conformance" / "cases"

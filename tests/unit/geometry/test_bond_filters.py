@@ -1,4 +1,4 @@
-"""Bond filters (peridyn.core.bond_filters): Peridigm's exact tests, deck validation, and the
+"""Bond filters (peridyn.geometry.bond_filters): Peridigm's exact tests, deck validation, and the
 neighbor counts of Peridigm's bond-filter conformance cases."""
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import netCDF4
 import numpy as np
 import pytest
 
-from peridyn.core.bond_filters import (
+from peridyn.geometry.bond_filters import (
     DiskFilter,
     ExodusMeshFilter,
     RectangularPlaneFilter,
@@ -18,8 +18,8 @@ from peridyn.core.bond_filters import (
     make_filter,
     make_filters,
 )
-from peridyn.core.neighbors import radius_search
-from peridyn.errors import InputError
+from peridyn.geometry.neighbors import radius_search
+from peridyn.core.errors import InputError
 
 SHARED = Path(__file__).resolve().parents[3] / ".." / "shared"
 CASES = SHARED.resolve() / "conformance" / "cases"

@@ -30,7 +30,7 @@ def test_serial_run_imports_neither_mpi_nor_contact_code(tmp_path):
     tree = cube_deck(ELASTIC, n=3)
     tree["Solver"] = {"Final Time": 1e-4, "Verlet": {"Safety Factor": 0.5}}
     tree["Output"] = {"Output Filename": "o", "Output Frequency": 1, "Output Variables": {"Displacement": True}}
-    from peridyn.io.deckfile import dump_yaml
+    from peridyn.deck.files import dump_yaml
 
     deck.write_text(dump_yaml(tree))
     script = textwrap.dedent(

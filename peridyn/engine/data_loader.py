@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
-from .fields import FieldSpec, Relation, Temporal
+from ..core.errors import InputError
+from ..core.fields import FieldSpec, Relation, Temporal
 
 
 class DataLoader:

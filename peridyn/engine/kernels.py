@@ -1,0 +1,99 @@
+"""The engine's own numba kernels: the scalar force-state gather, bond lengths, ghost and
+block-crossing flags, the critical time step (shapes and units in each docstring)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def gather_scalar_force_kernel(start, stop, offsets, neighbors, in_offsets, in_bonds, sources, y, volume, t, f):
+    """f_i = sum_{b out of i} t_b e_b V_j - sum_{b into i} t_b e_b V_src(b) for i in [start, stop):
+    the force density from scalar (central) force states, both bond ends, gathered per point.
+    Shapes: y (n, 3); volume (n,); t (nb,); f (n, 3)."""
+    for i in prange(start, stop):
+        fx = 0.0
+        fy = 0.0
+        fz = 0.0
+        for b in range(offsets[i], offsets[i + 1]):
+            j = neighbors[b]
+            ex = y[j, 0] - y[i, 0]
+            ey = y[j, 1] - y[i, 1]
+            ez = y[j, 2] - y[i, 2]
+            L = math.sqrt(ex * ex + ey * ey + ez * ez)
+            if L > 0.0:
+                s = (t[b] * volume[j]) / L
+                fx += s * ex
+                fy += s * ey
+                fz += s * ez
+        for k in range(in_offsets[i], in_offsets[i + 1]):
+            b = in_bonds[k]
+            j = sources[b]
+            ex = y[j, 0] - y[i, 0]
+            ey = y[j, 1] - y[i, 1]
+            ez = y[j, 2] - y[i, 2]
+            L = math.sqrt(ex * ex + ey * ey + ez * ez)
+            if L > 0.0:
+                s = (t[b] * volume[j]) / L
+                fx += s * ex
+                fy += s * ey
+                fz += s * ez
+        f[i, 0] = fx
+        f[i, 1] = fy
+        f[i, 2] = fz
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def bond_length_kernel(n, offsets, neighbors, x, zeta):
+    """zeta[b] = |x_j - x_i| for every bond b = i->j, as ((dx dx + dy dy) + dz dz)^(1/2)."""
+    for i in prange(n):
+        for b in range(offsets[i], offsets[i + 1]):
+            j = neighbors[b]
+            dx = x[j, 0] - x[i, 0]
+            dy = x[j, 1] - x[i, 1]
+            dz = x[j, 2] - x[i, 2]
+            zeta[b] = math.sqrt(dx * dx + dy * dy + dz * dz)
+
+
+@njit(cache=True)
+def foreign_neighbor_kernel(n, offsets, neighbors, owner, rank, out):
+    """out[i] = some neighbor of row i is owned by another rank."""
+    for i in range(n):
+        for b in range(offsets[i], offsets[i + 1]):
+            if owner[neighbors[b]] != rank:
+                out[i] = True
+                break
+
+
+@njit(cache=True)
+def crossing_blocks_kernel(n, offsets, neighbors, block_index, open_mask):
+    """open_mask[k] = True for every block with a bond leaving or entering it."""
+    for i in range(n):
+        bi = block_index[i]
+        for b in range(offsets[i], offsets[i + 1]):
+            bj = block_index[neighbors[b]]
+            if bj != bi:
+                open_mask[bi] = True
+                open_mask[bj] = True
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def critical_time_step_kernel(start, stop, offsets, neighbors, x, volume, density, c_const, c_point, dt):
+    """dt_i = sqrt(2 rho / sum_j V_j c / |xi|) (Silling-Askari), inf for isolated points.
+    c_point (n,) overrides c_const when non-empty (variable horizons)."""
+    per_point = c_point.shape[0] > 0
+    for i in prange(start, stop):
+        c = c_point[i] if per_point else c_const
+        acc = 0.0
+        for b in range(offsets[i], offsets[i + 1]):
+            j = neighbors[b]
+            dx = x[i, 0] - x[j, 0]
+            dy = x[i, 1] - x[j, 1]
+            dz = x[i, 2] - x[j, 2]
+            acc += (volume[j] * c) / math.sqrt(dx * dx + dy * dy + dz * dz)
+        dt[i] = math.sqrt((2.0 * density) / acc) if acc > 0.0 else np.inf
+
+
+# ------------------------------------------------------------------------------------------------
