@@ -1,7 +1,7 @@
 """Neighbor-search benchmark (run on demand, not a test).
 
 Cubes of m^3 points (m = 20, 40, 60, 80), spacing 1, horizon 3.015 spacings, spherical search
-(:func:`peridyn.core.neighbors.radius_search`, int32 neighbors). For each size it prints: points,
+(:func:`peridyn.geometry.neighbors.radius_search`, int32 neighbors). For each size it prints: points,
 bonds, build time (best of 3 after a warm-up compile), bytes per bond of the NeighborList with
 its reverse index, peak RSS growth of the build + reverse, and the times of ``reverse()``,
 ``transpose()`` (for a one-sided list the general path; here the lists are symmetric) and
@@ -47,7 +47,8 @@ def best_of(f, reps: int = 3) -> tuple[float, object]:
 
 
 def run_one(m: int) -> dict:
-    from peridyn.core.neighbors import NeighborList, radius_search, space_filling_order
+    from peridyn.core.bonds import NeighborList
+    from peridyn.geometry.neighbors import radius_search, space_filling_order
 
     # warm-up: compile (or load from cache) every kernel on a small cube
     xw = lattice(6)

@@ -32,9 +32,9 @@ def child(deck_path: str, linear_solver: str, out_dir: str) -> dict:
     from peridyn.cli import _single_threaded_blas
 
     _single_threaded_blas()  # what `peridyn run` sets up (threads per rank under MPI)
-    from peridyn.core.deck import load_deck
-    from peridyn.core.engine import Simulation
-    from peridyn.core.parallel import get_comm
+    from peridyn.deck.model import load_deck
+    from peridyn.engine.simulation import Simulation
+    from peridyn.parallel.comm import get_comm
 
     deck = load_deck(deck_path)
     comm = get_comm()
