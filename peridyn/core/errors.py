@@ -21,6 +21,20 @@ class ExitCode(IntEnum):
     INTERRUPTED = 130  #: stopped by the user (Ctrl-C)
 
 
+#: longest piece (file, path, message, fix) of an error line before it is shortened
+MAX_PIECE = 200
+
+
+def sane(text: str, limit: int = MAX_PIECE) -> str:
+    """``text`` fit for one terminal line: control characters escaped, at most ``limit``
+    characters (the middle elided)."""
+    out = "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in str(text))
+    if len(out) > limit:
+        keep = (limit - 5) // 2
+        out = f"{out[:keep]} ... {out[-keep:]}"
+    return out
+
+
 def format_path(path: Sequence[str | int]) -> str:
     """``("Materials", "My Elastic", "Bulk Modulus")`` -> ``Materials > My Elastic > Bulk Modulus``."""
     return " > ".join(str(p) for p in path)
@@ -65,12 +79,12 @@ class InputError(PeridynError):
     def one_line(self) -> str:
         where = []
         if self.file:
-            where.append(f"{self.file}:{self.line}" if self.line else self.file)
+            where.append(sane(f"{self.file}:{self.line}" if self.line else self.file))
         if self.path:
-            where.append(format_path(self.path))
-        text = ": ".join(where + [self.message])
+            where.append(sane(format_path(self.path)))
+        text = ": ".join(where + [sane(self.message, 2 * MAX_PIECE)])
         if self.fix:
-            text += f"; {self.fix}"
+            text += f"; {sane(self.fix)}"
         return text
 
     def with_context(self, *, file: str | None = None, prefix: Sequence[str | int] = ()) -> "InputError":

@@ -7,9 +7,44 @@ errors (``extra="forbid"``); keys Peridigm accepts but ignores in that place are
 """
 from __future__ import annotations
 
+import math
+import types
+import typing
 from typing import Any, ClassVar
 
-from pydantic import BaseModel, ConfigDict
+from pydantic import BaseModel, ConfigDict, ValidationInfo, model_validator
+
+#: deck values are never meant as numbers when they are booleans, and never as deck keys when
+#: they are Python attribute names; validation with this context key set enforces both
+DECK_CONTEXT = "deck"
+
+
+def _leaf_types(annotation: Any) -> set[Any]:
+    """The scalar types an annotation accepts (``float | str`` -> {float, str}, list[float] -> {list})."""
+    origin = typing.get_origin(annotation)
+    if origin in (typing.Union, types.UnionType):
+        out: set[Any] = set()
+        for arg in typing.get_args(annotation):
+            out |= _leaf_types(arg)
+        return out
+    if origin is typing.Literal:
+        return {type(a) for a in typing.get_args(annotation)}
+    if origin is typing.Annotated:
+        return _leaf_types(typing.get_args(annotation)[0])
+    return {origin or annotation}
+
+
+def _numeric_only(annotation: Any) -> bool:
+    kinds = _leaf_types(annotation)
+    return bool(kinds & {float, int}) and bool not in kinds
+
+
+def _non_finite(value: Any) -> bool:
+    if isinstance(value, float):
+        return not math.isfinite(value)
+    if isinstance(value, (list, tuple)):
+        return any(_non_finite(v) for v in value)
+    return False
 
 
 class ModelParams(BaseModel):
@@ -19,9 +54,33 @@ class ModelParams(BaseModel):
     the deck loader drops them with one warning naming them, so Peridigm decks run unchanged.
     """
 
-    model_config = ConfigDict(frozen=True, extra="forbid", populate_by_name=True, str_strip_whitespace=False)
+    model_config = ConfigDict(frozen=True, extra="forbid", populate_by_name=True, str_strip_whitespace=False, allow_inf_nan=False)
 
     ignored_keys: ClassVar[frozenset[str]] = frozenset()
+
+    @model_validator(mode="before")
+    @classmethod
+    def _deck_values(cls, data: Any, info: ValidationInfo) -> Any:
+        """Refuse what pydantic's lax mode would take: ``inf``/``nan`` in lists and numbers given
+        as booleans (``Density: true``) or as Python attribute names (``density``) in a deck."""
+        if not isinstance(data, dict):
+            return data
+        from_deck = bool(info.context and info.context.get(DECK_CONTEXT))
+        problems = []
+        for name, f in cls.model_fields.items():
+            alias = f.alias or name
+            if from_deck and alias != name and name in data and alias not in data:
+                problems.append(f"{name!r} is not a deck key: write {alias!r}")
+            if alias not in data:
+                continue
+            value = data[alias]
+            if isinstance(value, bool) and _numeric_only(f.annotation):
+                problems.append(f"{alias!r} must be a number, got the boolean {str(value).lower()}")
+            elif _non_finite(value):
+                problems.append(f"{alias!r} must be finite, got {value!r}")
+        if problems:
+            raise ValueError("; ".join(problems))
+        return data
 
     def given(self, name: str) -> bool:
         """Whether the field ``name`` (Python name) was given in the deck."""

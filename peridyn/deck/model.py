@@ -13,12 +13,13 @@ node-set names are matched after "tidying" (upper case, spaces as ``_``); an ent
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from ..core.errors import InputError, raise_collected
 from .source import SECTION_NAMES
@@ -74,6 +75,16 @@ class OutputParams(ModelParams):
     parallel_write: bool = Field(True, alias="Parallel Write", description="accepted; one merged file is always written")
     bond_family: bool = Field(False, alias="Bond Family", description="accepted for compatibility")
     output_variables: dict[str, Any] = Field(default_factory=dict, alias="Output Variables", description="variables to write (values ignored, as in Peridigm)")
+
+    @field_validator("output_filename")
+    @classmethod
+    def _plain_name(cls, name: str) -> str:
+        if not name.strip() or name.strip(".") == "" or any(c in name for c in "/\\") or not name.isprintable():
+            raise ValueError(
+                f"'Output Filename' must be a plain file name, got {name!r}; "
+                "give a name without folders and choose the folder with 'peridyn run --output-dir'"
+            )
+        return name
 
 
 class DataLoaderParams(ModelParams):
@@ -282,6 +293,9 @@ def parse_deck(source, registry: Registry | None = None) -> Deck:
         if bc_type is None:
             err("missing required key 'Type'", path)
             continue
+        if not isinstance(bc_type, str):
+            errors.append(registry.unknown("boundary_condition", bc_type, path=path + ("Type",), file=file))
+            continue
         key = tidy(bc_type)
         if not registry.has("boundary_condition", key):
             errors.append(registry.unknown("boundary_condition", str(bc_type), path=path + ("Type",), file=file))
@@ -405,9 +419,13 @@ def _check_expression(text: str, variables, path, file, errors) -> None:
     from .expressions import ExpressionError, compile_expression
 
     try:
-        compile_expression(text, variables)
+        expr = compile_expression(text, variables)
     except ExpressionError as exc:
         errors.append(InputError(str(exc), file=file, path=path))
+        return
+    if expr.is_constant and not math.isfinite(float(expr())):
+        errors.append(InputError(f"the expression {text!r} evaluates to {float(expr())!r}", file=file, path=path,
+                                 fix="give an expression with a finite value"))
 
 
 def _parse_models(sec, section_name, kind, key, registry, file, errors, lines) -> dict[str, ModelEntry]:

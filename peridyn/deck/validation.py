@@ -9,6 +9,7 @@ from typing import Any, TypeVar
 from pydantic import BaseModel, ValidationError
 
 from ..core.errors import InputError
+from ..core.params import DECK_CONTEXT
 
 log = logging.getLogger("peridyn.deck")
 
@@ -38,6 +39,45 @@ def _describe(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
+def _plain(number: Any) -> str:
+    return f"{number:g}" if isinstance(number, float) else str(number)
+
+
+def explain(kind: str, ctx: dict[str, Any], got: Any, msg: str) -> tuple[str, str | None]:
+    """(problem, fix) in words for one pydantic error type; pydantic's own text otherwise."""
+    shown = f" (got {_describe(got)})" if got is not None and not isinstance(got, Mapping) else ""
+    bounds = {
+        "greater_than": ("greater than", "gt"),
+        "greater_than_equal": ("at least", "ge"),
+        "less_than": ("less than", "lt"),
+        "less_than_equal": ("at most", "le"),
+    }
+    if kind in bounds:
+        words, key = bounds[kind]
+        limit = _plain(ctx.get(key))
+        return f"must be {words} {limit}{shown}", f"give a value {words} {limit}"
+    if kind == "finite_number":
+        return f"must be a finite number{shown}", "give a finite value"
+    if kind in ("float_parsing", "float_type", "int_type", "int_parsing", "int_from_float"):
+        whole = kind.startswith("int")
+        what = "a whole number" if whole else "a number"
+        return f"must be {what}{shown}", ("write an integer such as 10" if whole else "write a number such as 2.5e9")
+    if kind in ("bool_parsing", "bool_type"):
+        return f"must be true or false{shown}", "write true or false"
+    if kind in ("string_type", "string_sub_type"):
+        return f"must be a text{shown}", "write a single value (quote it if it contains special characters)"
+    if kind == "literal_error":
+        expected = str(ctx.get("expected", ""))
+        return f"must be one of {expected}{shown}", "choose one of the listed values"
+    if kind in ("list_type", "tuple_type"):
+        return f"must be a list of values{shown}", "write the values as a list"
+    if kind in ("dict_type", "model_type", "model_attributes_type"):
+        return f"must be a list of parameters (a mapping){shown}", "give the parameters as keys under it"
+    if kind in ("too_short", "too_long"):
+        return f"{msg}{shown}", "give the expected number of values"
+    return f"{msg}{shown}", None
+
+
 def convert_errors(exc: ValidationError, model: type[BaseModel], *, path: Sequence[str], file: str | None, lines=None) -> list[InputError]:
     """One InputError per pydantic error, with the deck path and a suggestion."""
     out: list[InputError] = []
@@ -62,11 +102,13 @@ def convert_errors(exc: ValidationError, model: type[BaseModel], *, path: Sequen
         elif kind in ("value_error", "assertion_error") and not loc:
             msg = str(err["msg"]).removeprefix("Value error, ").removeprefix("Assertion failed, ")
             out.append(InputError(msg, file=file, path=full, line=line))
+        elif kind in ("value_error", "assertion_error"):
+            msg = str(err["msg"]).removeprefix("Value error, ").removeprefix("Assertion failed, ")
+            out.append(InputError(msg, file=file, path=full, line=line))
         else:
-            msg = str(err["msg"]).removeprefix("Value error, ")
-            got = err.get("input")
-            text = f"{msg} (got {_describe(got)})" if got is not None and not isinstance(got, Mapping) else msg
-            out.append(InputError(text, file=file, path=full, line=line))
+            msg = str(err["msg"])
+            problem, fix = explain(kind, err.get("ctx") or {}, err.get("input"), msg)
+            out.append(InputError(problem, file=file, path=full, line=line, fix=fix))
     return out
 
 
@@ -96,7 +138,7 @@ def validate_params(
             continue
         clean[key] = value
     try:
-        return model.model_validate(clean, context=context)
+        return model.model_validate(clean, context={DECK_CONTEXT: True, **(context or {})})
     except ValidationError as exc:
         errors.extend(convert_errors(exc, model, path=path, file=file, lines=lines))
         return None

@@ -12,6 +12,7 @@ Expressions are evaluated at the points' *reference* coordinates.
 """
 from __future__ import annotations
 
+import math
 from typing import Any, ClassVar
 
 import numpy as np
@@ -84,9 +85,12 @@ class BoundaryCondition:
 
         problems = []
         try:
-            compile_expression(params.text, ("x", "y", "z", "t"))
+            expr = compile_expression(params.text, ("x", "y", "z", "t"))
         except ExpressionError as exc:
             problems.append(f"Value: {exc}")
+        else:
+            if expr.is_constant and not math.isfinite(float(expr())):
+                problems.append(f"Value: {params.text!r} evaluates to {float(expr())!r}; give a finite value")
         if cls.scalar and params.coordinate != "x":
             problems.append(f"{cls.name} acts on a scalar field; omit Coordinate or use 'x'")
         return problems

@@ -115,6 +115,13 @@ class OutputManager:
                 errors.append(InputError(p, file=deck.file, path=entry.path))
         raise_collected(errors)
         self.writers = [OutputWriter(sim, self, out) for out in deck.outputs]
+        seen: dict[str, OutputWriter] = {}
+        for w in self.writers:
+            first = seen.setdefault(w.path.name, w)
+            if first is not w:
+                errors.append(InputError(f"writes the same file as {first.entry.section!r} ({w.path.name})", file=deck.file,
+                                         path=w.entry.path + ("Output Filename",), fix="give each output section its own Output Filename"))
+        raise_collected(errors)
 
     def _model_fields(self) -> dict[str, FieldSpec]:
         out: dict[str, FieldSpec] = {}

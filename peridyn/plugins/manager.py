@@ -88,7 +88,7 @@ class Registry:
         return list(self.entries[kind])
 
     def has(self, kind: str, name: str) -> bool:
-        return name in self.entries[kind]
+        return isinstance(name, str) and name in self.entries[kind]
 
     def entry(self, kind: str, name: str) -> Entry:
         return self.entries[kind][name]
@@ -96,7 +96,7 @@ class Registry:
     def get(self, kind: str, name: str, *, path: tuple[str, ...] = (), file: str | None = None) -> type:
         """The class providing ``name``; InputError (with suggestions) when nobody provides it
         or its module fails to import."""
-        entry = self.entries[kind].get(name)
+        entry = self.entries[kind].get(name) if isinstance(name, str) else None
         human = KINDS[kind][1]
         if entry is None:
             raise self.unknown(kind, name, path=path, file=file)
@@ -113,6 +113,13 @@ class Registry:
     def unknown(self, kind: str, name: str, *, path=(), file=None) -> InputError:
         human = KINDS[kind][1]
         available = self.names(kind)
+        if not isinstance(name, str):
+            listed = ", ".join(sorted(available)) or "none is installed"
+            return InputError(f"expected the name of a {human}, got {name!r}", file=file, path=path,
+                              fix=f"write one name (available: {listed})")
+        if not available:
+            return InputError(f"unknown {human} {name!r}: no {human} is installed", file=file, path=path,
+                              fix="remove the entry, or install a plugin that provides it")
         close = difflib.get_close_matches(str(name), available, n=3, cutoff=0.5)
         hint = f"did you mean {' or '.join(repr(c) for c in close)}? " if close else ""
         fix = f"{hint}available: {', '.join(sorted(available))}"

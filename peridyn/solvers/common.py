@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 from numba import njit
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from ..core.params import ModelParams
 from ..core.errors import InstabilityError
@@ -24,6 +24,15 @@ class SolverSection(ModelParams):
     initialize_predictor: bool = Field(
         False, alias="Initialize Predictor From Previous Solver", description="implicit solvers: start from the previous solver's velocity"
     )
+
+    @model_validator(mode="after")
+    def _time_order(self):
+        if (self.given("final_time") or self.given("initial_time")) and not self.final_time > self.initial_time:
+            raise ValueError(
+                f"'Final Time' ({self.final_time:g}) must be later than 'Initial Time' ({self.initial_time:g}); "
+                "nothing would be run" + ("" if self.given("final_time") else " ('Final Time' defaults to 1.0, as in Peridigm)")
+            )
+        return self
 
 
 # serial on purpose: O(points) sums whose result must not depend on the thread count
