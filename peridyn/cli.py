@@ -226,8 +226,11 @@ def cmd_check(args) -> int:
         print(f"  estimated stable time step (Verlet): {dt:.6g}")
     except Exception as exc:  # a material without a bulk modulus
         print(f"  estimated stable time step: unavailable ({exc})")
-    for entry in deck.solvers:
-        print(f"  solver {entry.section}: {entry.method}")
+    from .engine.limits import human_seconds
+
+    for entry, (_, steps, seconds) in zip(deck.solvers, sim.plan_solvers()):
+        planned = f", {steps} steps, estimated {human_seconds(seconds)} on one core" if steps is not None else ""
+        print(f"  solver {entry.section}: {entry.method}{planned}")
     for w in sim.outputs.writers:
         print(f"  output {w.entry.section}: {w.path.name}, every {w.frequency} step(s), {len(w.names)} variable(s)")
     mem = sim.memory_bytes()
@@ -307,6 +310,7 @@ def build_parser() -> argparse.ArgumentParser:
         sp.add_argument("-v", "--verbose", action="count", default=0, help="more output")
         sp.add_argument("-q", "--quiet", action="count", default=0, help="less output")
         sp.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help="show tracebacks")
+        sp.add_argument("--no-limits", action="store_true", help="run models estimated too large for memory or too long to finish (a warning instead of an error)")
 
     r = sub.add_parser("run", help="run a deck (YAML or Peridigm XML)")
     r.add_argument("deck")
@@ -377,6 +381,10 @@ def _main(argv: list[str] | None) -> int:
     debug = args.debug
     if not hasattr(args, "verbose"):
         args.verbose, args.quiet = 0, 0
+    if getattr(args, "no_limits", False):
+        from .engine.limits import ENV
+
+        os.environ[ENV] = "1"
     try:
         return int(args.func(args))
     except InputError as exc:

@@ -43,6 +43,11 @@ class DiscretizationReader(ABC):
         self.params = params
         self.deck_dir = deck_dir
 
+    def estimate_points(self) -> int | None:
+        """The number of points ``read`` would return, known before any is made (generators),
+        or None; lets the engine refuse a model that cannot fit in memory before allocating it."""
+        return None
+
     @abstractmethod
     def read(self) -> "Discretization":
         """Return the points in mothership order; raise InputError for unreadable input."""
@@ -350,3 +355,8 @@ class Solver(ABC):
     @abstractmethod
     def run(self, sim: "Simulation") -> None:
         """Advance ``sim`` from the solver's initial to its final time, writing output."""
+
+    def planned_steps(self, sim: "Simulation") -> int | None:
+        """How many steps (time steps or load steps) ``run`` will take, computed without running
+        (None when unknown); ``peridyn check`` reports it and the engine refuses absurd counts."""
+        return None

@@ -23,6 +23,7 @@ from ..core.interfaces import BlockView
 from ..deck.model import Deck, ModelEntry
 from ..geometry.influence import InfluenceFunction
 from ..parallel.comm import SerialComm
+from . import limits
 from .blocks import Block, plan_fusion
 from .conditions import create_conditions
 from .kernels import (
@@ -67,9 +68,16 @@ class Simulation:
         deck = self.deck
         dentry = deck.discretization
         reader = dentry.cls(dentry.params, deck_dir=deck.directory)
+        try:
+            planned = reader.estimate_points()
+        except (ArithmeticError, ValueError):  # a generator whose sizes overflow
+            planned = math.inf
+        if planned is not None:
+            limits.check_memory(float(planned), 0.0, file=deck.file, path=dentry.path, what="the discretization")
         t0 = _time.perf_counter()
         disc = reader.read()
         disc.validate()
+        self._check_points(disc)
         self.discretization = disc
         self.timers["read mesh"] = _time.perf_counter() - t0
         self.num_global = disc.num_points
@@ -77,6 +85,8 @@ class Simulation:
 
         self._assign_blocks(disc)
         horizon = self._point_horizons(disc)
+        self.bonds_estimate = limits.estimate_bonds(disc.volume, horizon)
+        limits.check_memory(float(disc.num_points), self.bonds_estimate, file=deck.file, path=("Blocks",), what="the model")
         t0 = _time.perf_counter()
         offsets, neighbors = self._build_neighbors(disc, horizon)
         self.timers["neighbor search"] = _time.perf_counter() - t0
@@ -154,6 +164,17 @@ class Simulation:
         index_of_id = {bid: k for k, (_, bid, _) in enumerate(specs)}
         self.block_index_mothership = np.array([index_of_id[b] for b in disc.block_id], dtype=np.int64) if disc.num_points else np.zeros(0, np.int64)
 
+    def _check_points(self, disc) -> None:
+        """Coordinates and volumes must be finite, volumes positive."""
+        bad = ~np.isfinite(disc.x).all(axis=1) | ~(np.isfinite(disc.volume) & (disc.volume > 0))
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            raise InputError(
+                f"point {int(disc.gid[i]) + 1} has position {tuple(float(c) for c in disc.x[i])} and volume {float(disc.volume[i])!r}",
+                file=str(disc.source or self.deck.file), path=self.deck.discretization.path,
+                fix="every point needs a finite position and a positive finite volume",
+            )
+
     def _point_horizons(self, disc) -> np.ndarray:
         from ..deck.expressions import compile_expression
 
@@ -165,8 +186,13 @@ class Simulation:
                 expr = compile_expression(h, ("x", "y", "z"))
                 xs = disc.x[mask]
                 values = np.broadcast_to(np.asarray(expr(x=xs[:, 0], y=xs[:, 1], z=xs[:, 2]), float), (int(mask.sum()),))
-                if np.any(~(values > 0)):
-                    raise InputError(f"the horizon expression is not positive at every point of block {name!r}", file=self.deck.file, path=entry.path + ("Horizon",))
+                bad = ~(np.isfinite(values) & (values > 0))
+                if np.any(bad):
+                    at = xs[int(np.argmax(bad))]
+                    raise InputError(
+                        f"the horizon expression gives {values[int(np.argmax(bad))]!r} at ({at[0]:g}, {at[1]:g}, {at[2]:g}) in block {name!r}",
+                        file=self.deck.file, path=entry.path + ("Horizon",), fix="give an expression that is positive and finite at every point",
+                    )
                 horizon[mask] = values
             else:
                 # Peridigm prints a double horizon with %.16g and re-parses it
@@ -333,6 +359,16 @@ class Simulation:
         s["Coordinates"][:] = x
         s["Volume"][:] = disc.volume[self.mothership_of_local]
         bond_length_kernel(self.num_local, self.bonds.offsets, self.bonds.neighbors, x, s["Bond_Length"])
+        zeta = s["Bond_Length"]
+        if zeta.size and not zeta.min() > 0.0:
+            b = int(np.argmin(zeta))
+            i = int(np.searchsorted(self.bonds.offsets, b, side="right")) - 1
+            j = int(self.bonds.neighbors[b])
+            raise InputError(
+                f"points {int(self.gid[i]) + 1} and {int(self.gid[j]) + 1} are at the same position {tuple(float(c) for c in x[i])}",
+                file=str(disc.source or self.deck.file), path=self.deck.discretization.path,
+                fix="remove duplicate points from the mesh",
+            )
         if "Horizon" in s:
             s["Horizon"][:] = self.horizon_local
 
@@ -393,11 +429,25 @@ class Simulation:
             if spec.halo and spec.is_point:
                 self.halo.exchange(self.fields[name])
 
+    def plan_solvers(self) -> list[tuple[Any, int | None, float | None]]:
+        """The deck's solvers in order, each as (solver, planned steps, estimated seconds), after
+        refusing absurd step counts (see :mod:`peridyn.engine.limits`)."""
+        plan = []
+        bonds = float(self.num_bonds_global)
+        for entry in self.deck.solvers:
+            solver = entry.cls(entry.params, section=entry.section)
+            steps = solver.planned_steps(self)
+            seconds = None
+            if steps is not None:
+                seconds = limits.check_steps(steps, float(self.num_global), bonds, file=self.deck.file, path=entry.path, section=entry.section)
+            plan.append((solver, steps, seconds))
+        return plan
+
     def run_solvers(self) -> None:
         """Run the deck's solver sections in deck order (what ``peridyn run`` does between set-up
         and the summary; the caller closes ``outputs``)."""
-        for entry in self.deck.solvers:
-            entry.cls(entry.params, section=entry.section).run(self)
+        for solver, _, _ in self.plan_solvers():
+            solver.run(self)
 
     def evaluate_forces(self) -> np.ndarray:
         """Peridigm's evalModel: damage, precompute, force. Returns Force_Density (n, 3)."""

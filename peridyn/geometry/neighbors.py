@@ -189,8 +189,12 @@ def radius_search(
     xmin = x.min(axis=0)
     ext = x.max(axis=0) - xmin
     hmax = float(hq.max())
-    cell = hmax / _CELL_FACTOR
     max_cells = 2 * n + 64
+    # a horizon far below the extent would ask for more cells than points: start at the size
+    # that fits the budget (a horizon that underflows to a zero cell edge included)
+    cell = max(hmax / _CELL_FACTOR, float(ext.max()) / max_cells ** (1.0 / 3.0))
+    if not cell > 0.0:
+        cell = 1.0  # every point at one place
     while True:
         dims_f = np.floor(ext / cell) + 1.0
         if float(dims_f[0]) * float(dims_f[1]) * float(dims_f[2]) <= max_cells:

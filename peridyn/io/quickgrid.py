@@ -162,6 +162,8 @@ def cell_neighborhood_size(horizon: float, cell_size: float, num_cells: int, rin
     """
     dx = cell_size * ring_radius
     ratio = horizon / dx
+    if not ratio < num_cells:  # also an overflow to inf
+        return num_cells
     n = int(ratio)
     if abs(ratio - n) >= 0.5:
         n += 1
@@ -424,6 +426,15 @@ class PdQuickGrid(DiscretizationReader):
     name = "PdQuickGrid"
     Params = PdQuickGridParams
     supports_bond_filters = False
+
+    def estimate_points(self) -> int:
+        params: PdQuickGridParams = self.params  # type: ignore[assignment]
+        if params.tensor_product_3d is not None:
+            g = params.tensor_product_3d
+            return g.number_points_x * g.number_points_y * g.number_points_z
+        assert params.tensor_product_cylinder is not None
+        nr, num_rays, nz = cylinder_layout(params.tensor_product_cylinder)[:3]
+        return nr * num_rays * nz
 
     def read(self) -> Discretization:
         params: PdQuickGridParams = self.params  # type: ignore[assignment]

@@ -81,6 +81,10 @@ class Implicit(Solver):
         """The tangent this solver allocates (see Simulation._rank_deficient_node_set)."""
         return "default"
 
+    def planned_steps(self, sim) -> int:
+        steps = (self.params.final_time - self.params.initial_time) / self.params.implicit.fixed_dt
+        return int(math.floor(steps)) if math.isfinite(steps) else 2**63
+
     def run(self, sim) -> None:
         with threads_for(sim):
             self._run(sim)

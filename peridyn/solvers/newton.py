@@ -56,6 +56,16 @@ def load_times(section, sublist, *, path: tuple[str, ...], file) -> list[float]:
     )
 
 
+def planned_load_steps(section, sublist) -> int | None:
+    """The number of load steps :func:`load_times` will give, without building the list."""
+    n = getattr(sublist, "number_of_load_steps", None)
+    if section.given("final_time") and n is not None:
+        return int(n)
+    if getattr(sublist, "time_steps", None) is not None:
+        return max(len(str(sublist.time_steps).split()) - 1, 0)
+    return None
+
+
 def check_time_steps(text: str) -> str:
     """Validator of ``Time Steps``: at least one number, strictly increasing."""
     values = parse_time_steps(text)

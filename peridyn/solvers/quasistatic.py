@@ -44,7 +44,7 @@ from ..core.params import ModelParams
 from ..core.errors import InstabilityError
 from .common import SolverSection
 from .linear import METHODS, LinearSolver
-from .newton import ImplicitProblem, threads_for, check_time_steps, load_times, solver_stats
+from .newton import ImplicitProblem, check_time_steps, load_times, planned_load_steps, solver_stats, threads_for
 
 log = logging.getLogger("peridyn.solver")
 
@@ -139,6 +139,9 @@ class QuasiStatic(Solver):
     def tangent_request(cls, params) -> str:
         """The tangent this solver allocates (see Simulation._rank_deficient_node_set)."""
         return "default"
+
+    def planned_steps(self, sim) -> int | None:
+        return planned_load_steps(self.params, self.params.quasi_static)
 
     def run(self, sim) -> None:
         with threads_for(sim):

@@ -15,6 +15,7 @@ import numpy as np
 from numba import njit, prange
 from pydantic import Field
 
+from ..core.errors import InputError
 from ..core.interfaces import Solver
 from ..core.params import ModelParams
 from .progress import Progress
@@ -36,7 +37,7 @@ class Verlet(Solver):
     name = "Verlet"
     Params = VerletSection
 
-    def time_step(self, sim) -> tuple[float, float]:
+    def time_step(self, sim, *, warn: bool = True) -> tuple[float, float]:
         """(dt used, critical estimate)."""
         p = self.params.verlet
         dt_crit = sim.critical_time_step()
@@ -44,14 +45,15 @@ class Verlet(Solver):
         if p.safety_factor is not None:
             dt = dt * p.safety_factor
         if not math.isfinite(dt) or dt <= 0:
-            from ..core.errors import InputError
-
             raise InputError(
-                "cannot estimate a stable time step: no point has a neighbor",
+                f"cannot estimate a stable time step (got {dt!r}): no point has a neighbor, or the horizon is so "
+                "large that the bond stiffness vanishes",
                 file=sim.deck.file,
                 path=(self.section, "Verlet"),
-                fix="give 'Fixed dt' or check the horizon",
+                fix="give 'Fixed dt' or check the horizon against the point spacing",
             )
+        if not warn:
+            return dt, dt_crit
         if p.safety_factor is not None and p.safety_factor > 1.0:
             log.warning(
                 "%s: Safety Factor %.3g > 1: the critical time step estimate is conservative (the Verlet limit is typically "
@@ -63,11 +65,21 @@ class Verlet(Solver):
             log.warning("%s: the time step %.4g exceeds the critical time step estimate %.4g (ratio %.2f)", self.section, dt, dt_crit, dt / dt_crit)
         return dt, dt_crit
 
+    def planned_steps(self, sim) -> int:
+        dt, _ = self.time_step(sim, warn=False)
+        steps = (self.params.final_time - self.params.initial_time) / dt
+        if not math.isfinite(steps):
+            raise InputError(
+                f"the time step {dt!r} is too small for the time span to be counted in steps",
+                file=sim.deck.file, path=(self.section, "Verlet"), fix="check Fixed dt and Final Time",
+            )
+        return max(int(math.floor(steps)), 0)
+
     def run(self, sim) -> None:
         s = self.params
         dt, dt_crit = self.time_step(sim)
-        t0, tf = s.initial_time, s.final_time
-        nsteps = int(math.floor((tf - t0) / dt)) if tf > t0 else 0
+        t0 = s.initial_time
+        nsteps = self.planned_steps(sim)
         dt2 = dt / 2.0
         n = sim.num_local
         f = sim.fields

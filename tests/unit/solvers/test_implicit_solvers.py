@@ -37,7 +37,7 @@ def error_for(h, solver, **kw):
 @pytest.mark.parametrize(
     "solver, path, words",
     [
-        ({"Final Time": 1.0, "QuasiStatic": {"Number of Load Steps": 0}}, "Solver > QuasiStatic > Number of Load Steps", "greater than or equal to 1"),
+        ({"Final Time": 1.0, "QuasiStatic": {"Number of Load Steps": 0}}, "Solver > QuasiStatic > Number of Load Steps", "must be at least 1"),
         ({"QuasiStatic": {"Number of Load Steps": 4}}, "Solver", "no load steps"),
         ({"QuasiStatic": {"Time Steps": "0.0 0.5 0.4"}}, "Solver > QuasiStatic > Time Steps", "increase strictly"),
         ({"Final Time": 1.0, "QuasiStatic": {"Number of Load Steps": 1, "Belos Linear Solver": "BlockQMR"}}, "Solver > QuasiStatic > Belos Linear Solver", "BlockCG"),
@@ -49,7 +49,7 @@ def error_for(h, solver, **kw):
             "cannot be smaller",
         ),
         ({"Final Time": 1.0, "Implicit": {"Beta": 0.25}}, "Solver > Implicit", "Fixed dt"),
-        ({"Final Time": 1.0, "Implicit": {"Fixed dt": 0.1, "Gamma": 2.0}}, "Solver > Implicit > Gamma", "less than or equal to 1"),
+        ({"Final Time": 1.0, "Implicit": {"Fixed dt": 0.1, "Gamma": 2.0}}, "Solver > Implicit > Gamma", "must be at most 1"),
         ({"Final Time": 1.0, "NOXQuasiStatic": {"Number of Load Steps": 1, "Direction": {"Method": "Broyden"}}}, "Solver > NOXQuasiStatic > Direction > Method", "Newton"),
         ({"Final Time": 1.0, "NOXQuasiStatic": {"Number of Load Steps": 1}}, "Solver > NOXQuasiStatic", "Direction"),
         (

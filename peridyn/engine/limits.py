@@ -1,0 +1,137 @@
+"""A run's size, estimated before anything large is allocated or computed, and the limits that
+refuse what cannot fit in this machine's memory or cannot finish.
+
+Estimates, in order of the set-up:
+
+* points: from a generator's parameters (``DiscretizationReader.estimate_points``) before
+  the points are made;
+* bonds: sum over points of min(n - 1, (4/3) pi delta_i^3 / V_i), the points of a ball of the
+  horizon at the point's own density, before the neighbor search;
+* memory: ``BYTES_PER_POINT`` per point plus ``BYTES_PER_BOND`` per bond, against the memory
+  the operating system reports available;
+* steps and wall time: each solver's ``planned_steps`` times the bonds and points, at
+  ``BOND_RATE`` bond evaluations per second, before the first step.
+
+A model over the memory limit or a run over ``MAX_STEPS`` steps or ``MAX_SECONDS`` of estimated
+wall time is an input error (exit 2) that states the estimate and the limit; a run estimated to
+take more than ``WARN_SECONDS`` gets a warning. ``PERIDYN_NO_LIMITS=1`` (or ``peridyn run
+--no-limits``) turns the refusals into warnings for those who mean it.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import os
+
+import numpy as np
+
+from ..core.errors import InputError
+
+log = logging.getLogger("peridyn.engine")
+
+ENV = "PERIDYN_NO_LIMITS"
+#: fields, ids and orderings of one point, with headroom (cube40: about 600 bytes measured)
+BYTES_PER_POINT = 1024
+#: int32 neighbor, float64 bond length, reverse index, temporaries of the search and sort
+BYTES_PER_BOND = 24
+#: bond evaluations per second per run, a low figure for the LPS kernels on one core
+BOND_RATE = 5.0e7
+MAX_STEPS = 1.0e9
+MAX_SECONDS = 30 * 24 * 3600.0
+WARN_SECONDS = 3600.0
+
+
+def limits_off() -> bool:
+    return os.environ.get(ENV, "").strip().lower() not in ("", "0", "false", "no")
+
+
+def available_memory() -> float:
+    """Bytes of memory available to this process now (MemAvailable; total memory if unknown)."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as handle:
+            for line in handle:
+                if line.startswith("MemAvailable:"):
+                    return float(line.split()[1]) * 1024.0
+    except OSError:
+        pass
+    try:
+        return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):
+        return math.inf
+
+
+def _human_bytes(n: float) -> str:
+    if not math.isfinite(n):
+        return "an unbounded amount"
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB", "PiB"):
+        if n < 1024.0 or unit == "PiB":
+            return f"{n:.3g} {unit}"
+        n /= 1024.0
+    return f"{n:.3g} PiB"  # pragma: no cover
+
+
+def human_seconds(s: float) -> str:
+    if not math.isfinite(s):
+        return "forever"
+    if s < 120:
+        return f"{s:.3g} s"
+    if s < 7200:
+        return f"{s / 60:.3g} min"
+    if s < 3 * 86400:
+        return f"{s / 3600:.3g} h"
+    if s < 3 * 365 * 86400:
+        return f"{s / 86400:.3g} days"
+    return f"{s / (365 * 86400):.3g} years"
+
+
+def _refuse(message: str, *, file: str | None, path: tuple[str, ...], fix: str) -> None:
+    if limits_off():
+        log.warning("%s (%s is set: running anyway)", message, ENV)
+        return
+    raise InputError(message, file=file, path=path, fix=f"{fix}, or set {ENV}=1 (peridyn run --no-limits) if you mean it")
+
+
+def estimate_bonds(volume: np.ndarray, horizon: np.ndarray) -> float:
+    """Expected number of bonds: sum_i min(n - 1, 4/3 pi delta_i^3 / V_i). volume, horizon: (n,)."""
+    n = volume.shape[0]
+    if n < 2:
+        return 0.0
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        per_point = (4.0 / 3.0 * math.pi) * horizon**3 / volume
+    per_point = np.where(np.isnan(per_point), n - 1.0, np.minimum(per_point, n - 1.0))
+    return float(per_point.sum())
+
+
+def check_memory(points: float, bonds: float, *, file: str | None, path: tuple[str, ...], what: str) -> None:
+    """Refuse a model whose estimated memory exceeds what is available."""
+    need = points * BYTES_PER_POINT + bonds * BYTES_PER_BOND
+    have = available_memory()
+    if need > 0.9 * have:
+        bonds_text = f" and about {bonds:.3g} bonds" if bonds else ""
+        _refuse(
+            f"{what}: {points:.3g} points{bonds_text} need about {_human_bytes(need)}, more than the "
+            f"{_human_bytes(have)} of memory available",
+            file=file,
+            path=path,
+            fix="use fewer points or a smaller horizon",
+        )
+
+
+def estimate_seconds(steps: float, points: float, bonds: float) -> float:
+    return steps * (bonds + points) / BOND_RATE
+
+
+def check_steps(steps: int, points: float, bonds: float, *, file: str | None, path: tuple[str, ...], section: str) -> float:
+    """Refuse absurd step counts and run times; warn about runs of hours. Returns the estimate (s)."""
+    seconds = estimate_seconds(float(steps), points, bonds)
+    if steps > MAX_STEPS or seconds > MAX_SECONDS:
+        _refuse(
+            f"{steps:.3g} steps, estimated {human_seconds(seconds)} "
+            f"(limits: {MAX_STEPS:.0e} steps, {human_seconds(MAX_SECONDS)})",
+            file=file,
+            path=path,
+            fix="check Final Time, Fixed dt and the number of load steps",
+        )
+    elif seconds > WARN_SECONDS:
+        log.warning("%s: %d steps, estimated wall time %s on one core", section, steps, human_seconds(seconds))
+    return seconds
