@@ -310,15 +310,14 @@ class NOXRun:
                 return z
 
             return apply
-        import scipy.sparse.linalg as spla
+        from .ilu import ILU0
 
         # under MPI: block-Jacobi, an incomplete LU of each rank's owned block (AztecOO's
-        # domain decomposition without overlap)
+        # domain decomposition without overlap); ILU(0) on the tangent's pattern (AZ_ilu)
         A = T.owned_block() if T.parallel else T.to_scipy(copy=True)
         if A.shape[0] == 0:
             return lambda r: r.copy()
-        ilu = spla.spilu(A.tocsc(), drop_tol=0.0, fill_factor=1.0)
-        return ilu.solve
+        return ILU0(A).solve
 
     # -- directions -----------------------------------------------------------------------------
     def newton_direction(self, s: np.ndarray, F: np.ndarray) -> np.ndarray:

@@ -175,6 +175,56 @@ def test_nox_block_jacobi_ilu_converges_on_2_ranks(tmp_path):
         np.testing.assert_allclose(par["nodal"][f"Displacement{c}"], ser["nodal"][f"Displacement{c}"], rtol=0, atol=1e-7 * scale)
 
 
+def three_block_bar(tmp_path: Path, solver: dict, shape=(24, 4, 4)) -> dict:
+    """A box of unit spacing and horizon 3.015 read from a Text File (``tmp_path/mesh.txt``, for
+    decks in subfolders) in three blocks along x like the NOX_QS.g hex mesh (ends: block_2 and
+    block_1, middle: block_3), one material; both ends stretched to 0.01 (x - L/2) along x with y
+    and z held."""
+    g = np.stack(np.meshgrid(*[np.arange(n) + 0.5 for n in shape], indexing="ij"), axis=-1).reshape(-1, 3)
+    L = shape[0]
+    left, right = g[:, 0] < L / 4, g[:, 0] > 3 * L / 4
+    block = np.where(left, 2, np.where(right, 1, 3))
+    lines = [f"{x:.1f} {y:.1f} {z:.1f} {b} 1.0" for (x, y, z), b in zip(g, block)]
+    (tmp_path / "mesh.txt").write_text("# x y z block volume\n" + "\n".join(lines) + "\n")
+    ids = lambda mask: " ".join(str(k + 1) for k in np.nonzero(mask)[0])
+    bcs = {"Left Node Set": ids(left), "Right Node Set": ids(right)}
+    for end in ("Left", "Right"):
+        bcs[f"{end} X"] = {"Type": "Prescribed Displacement", "Node Set": f"{end} Node Set", "Coordinate": "x", "Value": f"0.01*(x-{L / 2})"}
+        for c in "yz":
+            bcs[f"{end} {c}"] = {"Type": "Prescribed Displacement", "Node Set": f"{end} Node Set", "Coordinate": c, "Value": "0.0"}
+    return {
+        "Discretization": {"Type": "Text File", "Input Mesh File": "../mesh.txt"},
+        "Materials": {"M": LPS},
+        "Blocks": {"All": {"Block Names": "block_1 block_2 block_3", "Material": "M", "Horizon": 3.015}},
+        "Boundary Conditions": bcs,
+        "Solver": solver,
+        "Output": {"Output Filename": "out", "Output Frequency": 1, "Output Variables": {"Displacement": True, "Nonlinear_Solver_Iterations": True}},
+    }
+
+
+@pytest.mark.parametrize(
+    "solver",
+    [
+        pytest.param(nox(NEWTON_ILU, "Full Tangent"), id="full-tangent-default-aztec"),
+        pytest.param(nox({"Method": "Newton", "Newton": {"Linear Solver": {"Preconditioner": "AztecOO", "Aztec Preconditioner": "ilu"}}}), id="newton-ilu"),
+    ],
+)
+def test_nox_ilu_on_a_three_block_mesh_on_2_ranks(tmp_path, solver):
+    """NOXQuasiStatic with AztecOO's "ilu" on a three-block box whose owned blocks (576 x 576,
+    ~400 entries a row) made SciPy's SuperLU spilu abort with "free(): invalid pointer" on 2
+    ranks: ILU(0) of each rank's owned block runs, and 1 and 2 ranks reach the same solution
+    (to well within the 1e-9 NOX tolerance)."""
+    tree = three_block_bar(tmp_path, solver)
+    ser = read_results(run_deck(tree, tmp_path / "np1", 1))
+    par = read_results(run_deck(tree, tmp_path / "np2", 2))
+    scale = np.abs(ser["nodal"]["DisplacementX"]).max()
+    assert scale > 0.1  # stretched by 0.01 (x - 12)
+    for c in "XYZ":
+        np.testing.assert_allclose(par["nodal"][f"Displacement{c}"], ser["nodal"][f"Displacement{c}"], rtol=0, atol=1e-8 * scale)
+    for r in (ser, par):
+        assert r["global"]["Nonlinear_Solver_Iterations"][-1] >= 2
+
+
 def test_implicit_same_results_on_1_2_3_ranks(tmp_path):
     """Newmark dynamics driven by a body force, Belos CG to 1e-10."""
     r = check_ranks(bar(IMPLICIT, pull=None, body_force="1.0e10"), tmp_path, rtol=1e-7)
