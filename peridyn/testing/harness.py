@@ -6,6 +6,8 @@ import copy
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from ..plugins import manager
 
 
@@ -50,6 +52,41 @@ def cube_deck(
         tree["Blocks"]["B"]["Damage Model"] = "D"
     if extra:
         tree.update(copy.deepcopy(extra))
+    return tree
+
+
+def scattered_deck(
+    material: dict[str, Any],
+    directory: str | Path,
+    *,
+    n: int = 6,
+    spacing: float = 1.0,
+    horizon_factor: float = 3.015,
+    jitter: float = 0.35,
+    volume_spread: float = 0.5,
+    seed: int = 0,
+    damage: dict[str, Any] | None = None,
+) -> dict[str, Any]:
+    """A deck tree of an irregular point cloud: the n^3 lattice of ``spacing`` (L) with every
+    point moved by up to ``jitter`` spacings in each direction and given a random volume
+    ``spacing^3 (1 + volume_spread U(-1, 1))`` (L^3). Writes ``scattered_points.txt`` (a
+    ``Text File`` mesh, block 1) into ``directory``, which :func:`build_simulation` must be
+    given. One block of ``material``, horizon ``horizon_factor * spacing``, optional damage."""
+    rng = np.random.default_rng(seed)
+    g = np.arange(n, dtype=float)
+    x = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
+    x = spacing * (x + jitter * rng.uniform(-1.0, 1.0, x.shape))
+    volume = spacing**3 * (1.0 + volume_spread * rng.uniform(-1.0, 1.0, len(x)))
+    lines = [f"{a!r} {b!r} {c!r} 1 {v!r}" for (a, b, c), v in zip(x.tolist(), volume.tolist())]
+    Path(directory, "scattered_points.txt").write_text("# x y z block volume\n" + "\n".join(lines) + "\n")
+    tree: dict[str, Any] = {
+        "Discretization": {"Type": "Text File", "Input Mesh File": "scattered_points.txt"},
+        "Materials": {"M": dict(material)},
+        "Blocks": {"B": {"Block Names": "block_1", "Material": "M", "Horizon": horizon_factor * spacing}},
+    }
+    if damage is not None:
+        tree["Damage Models"] = {"D": dict(damage)}
+        tree["Blocks"]["B"]["Damage Model"] = "D"
     return tree
 
 

@@ -1,24 +1,23 @@
 """Conformance suites every model passes (built-in or third-party).
 
 Subclass a suite in a test module and set the class attributes; pytest collects the tests.
-Tolerances are relative to the size of the quantities involved and leave room for round-off
-only (1e-9 of the force scale); a wrong kernel misses them by orders of magnitude.
+Tolerances are relative to the size of the quantities involved. Checks of identities (momentum,
+rigid motion, fused against generic kernels, damage) leave room for round-off only (1e-9 of
+the force scale or less); a wrong kernel misses them by orders of magnitude. The moduli checks
+compare a lattice model with the continuum and allow its lattice error (see
+:mod:`peridyn.testing.physics_checks`).
 """
 from __future__ import annotations
 
 import contextlib
+import tempfile
 from typing import Any, ClassVar
 
 import numpy as np
 import pytest
 
-from .harness import build_simulation, cube_deck, isolated_registry
-
-
-def _rotation(angle: float, axis) -> np.ndarray:
-    axis = np.asarray(axis, float) / np.linalg.norm(axis)
-    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
-    return np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * k @ k
+from .harness import build_simulation, cube_deck, isolated_registry, scattered_deck
+from .physics_checks import MaterialPhysicsChecks, rotation_matrix
 
 
 def forces_in_parts(sim, fraction: float = 0.37) -> np.ndarray:
@@ -43,17 +42,33 @@ def forces_in_parts(sim, fraction: float = 0.37) -> np.ndarray:
             blk.split = split
 
 
-class MaterialConformance:
+class MaterialConformance(MaterialPhysicsChecks):
     """Checks for a material. Set ``material`` (deck name) and ``params`` (deck parameters
     without ``Material Model``); ``plugins`` lists plugin modules to register when the package
     is not installed; ``central`` is True for materials whose bond forces act along the bond
-    (then angular momentum is conserved too)."""
+    (then angular momentum is conserved too).
+
+    The physics checks (:mod:`peridyn.testing.physics_checks`) read the elastic constants from
+    ``params`` (two of Bulk/Shear/Young's Modulus/Poisson's Ratio, or one of Bulk/Young's Modulus
+    for a bond-based material) or from ``moduli = (K, G)``; they build lattices of ``spacing``
+    (not 1, so that a missing factor of a length shows) and irregular point clouds, and use
+    ``damage_params`` as the damage model of the damage checks.
+    """
 
     material: ClassVar[str] = ""
     params: ClassVar[dict[str, Any]] = {}
     plugins: ClassVar[tuple] = ()
     central: ClassVar[bool] = True
-    strain: ClassVar[float] = 1e-3  #: size of the random deformation used by the checks
+    strain: ClassVar[float] = 1e-3  #: size of the random deformation used by the checks (displacements strain x spacing)
+    spacing: ClassVar[float] = 1e-3  #: lattice spacing of the checks' models (L)
+    moduli: ClassVar[tuple[float, float] | None] = None  #: (K, G) when the parameters do not state them
+    modulus_tolerance: ClassVar[float] = 0.25  #: measured moduli within a factor 1 + this of the stated ones
+    modulus_strain: ClassVar[float] = 1e-5  #: size of the quadratic fields of the moduli checks
+    modulus_points: ClassVar[int] = 15  #: points per side of the moduli lattice (interior points two horizons deep)
+    uniformity_tolerance: ClassVar[float] = 1e-3  #: relative spread allowed between interior points
+    dimension: ClassVar[int | None] = None  #: 2 or 3; default: 2 when Plane Strain / Plane Stress is set
+    #: the damage model of the damage checks: one that never breaks a bond on its own
+    damage_params: ClassVar[dict[str, Any]] = {"Damage Model": "Critical Stretch", "Critical Stretch": 1.0e3}
 
     # -- helpers ------------------------------------------------------------------------------
     @contextlib.contextmanager
@@ -64,25 +79,40 @@ class MaterialConformance:
         else:
             yield None
 
-    def simulation(self, n: int = 5, **kw):
-        mat = {"Material Model": self.material, **self.params}
+    def material_entry(self, params: dict[str, Any] | None = None) -> dict[str, Any]:
+        """The deck's Materials entry: ``Material Model``, ``params`` and the ``params`` overrides."""
+        return {"Material Model": self.material, **self.params, **(params or {})}
+
+    def simulation(self, n: int = 5, *, params: dict[str, Any] | None = None, **kw):
+        """A lattice cube of n^3 points (``cube_deck`` keywords; default spacing ``spacing``);
+        ``params`` overrides material parameters."""
+        kw.setdefault("spacing", self.spacing)
         with self._registry() as reg:
-            return build_simulation(cube_deck(mat, n=n, **kw), registry=reg)
+            return build_simulation(cube_deck(self.material_entry(params), n=n, **kw), registry=reg)
+
+    def scattered_simulation(self, n: int = 6, *, seed: int = 0, damage: dict[str, Any] | None = None):
+        """An irregular cloud (``scattered_deck``: jittered points, random volumes) of n^3
+        points of spacing ``spacing``, with the ``damage`` model entry if given."""
+        with tempfile.TemporaryDirectory() as tmp, self._registry() as reg:
+            tree = scattered_deck(self.material_entry(), tmp, n=n, spacing=self.spacing, seed=seed, damage=damage)
+            return build_simulation(tree, directory=tmp, registry=reg, output_dir=tmp)
 
     def deform(self, sim, seed: int = 0) -> None:
+        """Random displacements of size ``strain * spacing`` (L)."""
         x = sim.fields["Model_Coordinates"]
         rng = np.random.default_rng(seed)
-        sim.fields["Coordinates"][:] = x + self.strain * rng.standard_normal(x.shape)
+        sim.fields["Coordinates"][:] = x + (self.strain * self.spacing) * rng.standard_normal(x.shape)
         sim.fields["Displacement"][:] = sim.fields["Coordinates"] - x
 
     def force(self, sim) -> np.ndarray:
+        """The force density (n, 3) at the current positions (a copy)."""
         return sim.evaluate_forces().copy()
 
     def scale(self, sim) -> float:
         self.deform(sim)
         return float(np.abs(self.force(sim)).max())
 
-    # -- checks -------------------------------------------------------------------------------
+    # -- checks of the engine contract -------------------------------------------------------
     def test_params_validate(self):
         with self._registry() as reg:
             from ..plugins.manager import get_registry
@@ -93,36 +123,17 @@ class MaterialConformance:
                 cls.Params.model_validate({**self.params, "Not A Parameter": 1.0})
 
     def test_rigid_motion_gives_zero_force(self):
-        sim = self.simulation()
+        sim = self.scattered_simulation(seed=3)
         scale = self.scale(sim)
         assert scale > 0, "a random deformation should produce forces"
         x = sim.fields["Model_Coordinates"]
-        R = _rotation(0.7, [1.0, 2.0, 0.5])
-        sim.fields["Coordinates"][:] = x @ R.T + np.array([0.3, -1.0, 2.0])
+        R = rotation_matrix(0.7, [1.0, 2.0, 0.5])
+        sim.fields["Coordinates"][:] = x @ R.T + self.spacing * np.array([0.3, -1.0, 2.0])
         f = self.force(sim)
         np.testing.assert_allclose(f, 0.0, atol=1e-9 * scale)
 
-    def test_linear_momentum_is_conserved(self):
-        sim = self.simulation()
-        self.deform(sim, seed=1)
-        f = self.force(sim)
-        vol = sim.fields["Volume"][:, None]
-        total = (f * vol).sum(axis=0)
-        np.testing.assert_allclose(total, 0.0, atol=1e-9 * float(np.abs(f * vol).sum()))
-
-    def test_angular_momentum_is_conserved(self):
-        if not self.central:
-            pytest.skip("non-central material")
-        sim = self.simulation()
-        self.deform(sim, seed=2)
-        f = self.force(sim)
-        y = sim.fields["Coordinates"]
-        vol = sim.fields["Volume"][:, None]
-        torque = np.cross(y, f * vol).sum(axis=0)
-        np.testing.assert_allclose(torque, 0.0, atol=1e-9 * float(np.abs(np.cross(y, f * vol)).sum()))
-
     def test_fused_and_generic_paths_agree(self):
-        sim = self.simulation()
+        sim = self.scattered_simulation(seed=4)
         self.deform(sim, seed=3)
         blk = sim.blocks[0]
         if not blk.fused:
@@ -167,37 +178,13 @@ class MaterialConformance:
         dt = sim.critical_time_step()
         assert np.isfinite(dt) and dt > 0
 
-    def test_force_is_minus_gradient_of_stored_energy(self):
-        sim = self.simulation(n=4)
-        self.deform(sim, seed=5)
-        if sim.stored_energy() == 0.0:
-            pytest.skip("the material defines no stored energy")
-        y = sim.fields["Coordinates"]
-        vol = sim.fields["Volume"]
-        f = self.force(sim)
-        h = 1e-6 * self.strain * float(np.abs(sim.fields["Model_Coordinates"]).max() or 1.0)
-        rng = np.random.default_rng(6)
-        checked = 0
-        for i in rng.choice(sim.num_owned, size=min(6, sim.num_owned), replace=False):
-            for c in range(3):
-                old = y[i, c]
-                y[i, c] = old + h
-                sim.evaluate_forces()
-                e_plus = sim.stored_energy()
-                y[i, c] = old - h
-                sim.evaluate_forces()
-                e_minus = sim.stored_energy()
-                y[i, c] = old
-                grad = (e_plus - e_minus) / (2 * h)
-                np.testing.assert_allclose(-grad / vol[i], f[i, c], rtol=1e-5, atol=1e-6 * float(np.abs(f).max()))
-                checked += 1
-        assert checked > 0
-
 
 class DamageConformance:
     """Checks for a damage model: no damage without deformation, damage in [0, 1] that never
-    heals, and bonds that break under a large stretch. Set ``damage`` (deck name), ``params``
-    and optionally ``material`` / ``material_params`` and ``plugins``."""
+    heals, every bond broken by a stretch far beyond the critical one, point damage that
+    follows bond damage, and equal damage at both bond ends when the model declares it. Set
+    ``damage`` (deck name), ``params`` and optionally ``material`` / ``material_params`` and
+    ``plugins``."""
 
     damage: ClassVar[str] = ""
     params: ClassVar[dict[str, Any]] = {}
@@ -206,13 +193,15 @@ class DamageConformance:
     plugins: ClassVar[tuple] = ()
     breaking_strain: ClassVar[float] = 0.5  #: a uniform stretch that must break some bonds
 
-    def simulation(self, n: int = 5):
+    def simulation(self, n: int = 5, **kw):
+        """A lattice cube of n^3 points of spacing 1 (``cube_deck`` keywords) with the material
+        and the damage model."""
         mat = {"Material Model": self.material, **self.material_params}
         dmg = {"Damage Model": self.damage, **self.params}
         if self.plugins:
             with isolated_registry(*self.plugins) as reg:
-                return build_simulation(cube_deck(mat, n=n, damage=dmg), registry=reg)
-        return build_simulation(cube_deck(mat, n=n, damage=dmg))
+                return build_simulation(cube_deck(mat, n=n, damage=dmg, **kw), registry=reg)
+        return build_simulation(cube_deck(mat, n=n, damage=dmg, **kw))
 
     def test_no_damage_at_rest(self):
         sim = self.simulation()
@@ -269,3 +258,54 @@ class DamageConformance:
         sim.fields["Coordinates"][:] = x
         sim.evaluate_forces()
         assert np.all(sim.fields["Bond_Damage"] >= d), "damage must not heal"
+
+    def _random_stretch(self, sim, seed: int) -> None:
+        x = sim.fields["Model_Coordinates"]
+        rng = np.random.default_rng(seed)
+        sim.fields["Coordinates"][:] = x * (1.0 + self.breaking_strain * rng.random(x.shape))
+        sim.evaluate_forces()
+
+    def test_uniform_stretch_damages_every_bond(self):
+        """A uniform stretch of ``breaking_strain`` stretches every bond alike, far beyond the
+        critical value: every bond is damaged, and so is every point."""
+        sim = self.simulation()
+        x = sim.fields["Model_Coordinates"]
+        sim.fields["Coordinates"][:] = x * (1.0 + self.breaking_strain)
+        sim.evaluate_forces()
+        d = sim.fields["Bond_Damage"]
+        intact = int(np.count_nonzero(d <= 0.0))
+        assert intact == 0, f"{intact} of {d.size} bonds stretched by {self.breaking_strain} are undamaged"
+        assert float(sim.fields["Damage"][: sim.num_owned].min()) > 0.0, "points whose bonds are all damaged have no Damage"
+
+    def test_point_damage_follows_bond_damage(self):
+        """Damage is in [0, 1], zero at points whose bonds are intact and positive at points
+        with a damaged bond."""
+        sim = self.simulation(shape=(12, 4, 4))  # a bar: random stretches in one end only
+        x = sim.fields["Model_Coordinates"]
+        rng = np.random.default_rng(13)
+        lo, hi = float(x[:, 0].min()), float(x[:, 0].max())
+        end = x[:, 0] > lo + 0.7 * (hi - lo)
+        sim.fields["Coordinates"][end] = x[end] * (1.0 + self.breaking_strain * rng.random((int(end.sum()), 3)))
+        sim.evaluate_forces()
+        nl = sim.bonds
+        n = sim.num_owned
+        d = np.asarray(sim.fields["Bond_Damage"][: nl.offsets[n]], dtype=float)
+        damaged = np.zeros(n, bool)
+        damaged[np.repeat(np.arange(n), np.diff(nl.offsets[: n + 1]))[d > 0.0]] = True
+        assert 0 < damaged.sum() < n, "a random stretch should damage the bonds of some points, not all"
+        damage = sim.fields["Damage"][:n]
+        assert damage.min() >= 0.0 and damage.max() <= 1.0
+        assert np.all(damage[~damaged] == 0.0), "points with intact bonds have Damage"
+        assert np.all(damage[damaged] > 0.0), "points with damaged bonds have no Damage"
+
+    def test_declared_symmetry_holds(self):
+        """A model that declares ``symmetric`` (materials then skip the reverse bond) gives
+        both ends of every bond the same damage."""
+        sim = self.simulation()
+        if not sim.blocks[0].damage.symmetric:
+            pytest.skip("the damage model does not declare symmetric damage")
+        self._random_stretch(sim, seed=14)
+        d = sim.fields["Bond_Damage"]
+        reverse = sim.bonds.reverse()
+        assert 0.0 < float(np.mean(d)) < 1.0, "some bonds, not all, should break"
+        np.testing.assert_array_equal(d, d[reverse])

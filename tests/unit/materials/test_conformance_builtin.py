@@ -12,6 +12,16 @@ class TestElasticThermal(MaterialConformance):
     params = {"Density": 7800.0, "Young's Modulus": 200.0e9, "Poisson's Ratio": 0.3, "Thermal Expansion Coefficient": 1.0e-5}
 
 
+class TestElasticNearlyIncompressible(MaterialConformance):
+    material = "Elastic"
+    params = {"Density": 1000.0, "Young's Modulus": 2.0e9, "Poisson's Ratio": 0.45}  # K = 11 G: the moduli checks see G apart
+
+
+class TestElasticAuxetic(MaterialConformance):
+    material = "Elastic"
+    params = {"Density": 1000.0, "Bulk Modulus": 1.0e9, "Poisson's Ratio": -0.5}  # the lattice's largest cubic anisotropy
+
+
 class TestElasticBondBased(MaterialConformance):
     material = "Elastic Bond Based"
     params = {"Density": 7800.0, "Bulk Modulus": 130.0e9}
@@ -20,6 +30,11 @@ class TestElasticBondBased(MaterialConformance):
 class TestElasticBondBasedPlaneStress(MaterialConformance):
     material = "Elastic Bond Based"
     params = {"Density": 7800.0, "Young's Modulus": 200.0e9, "Plane Stress": True, "Height": 1.0}
+
+
+class TestElasticBondBasedPlaneStrain(MaterialConformance):
+    material = "Elastic Bond Based"
+    params = {"Density": 7800.0, "Bulk Modulus": 130.0e9, "Plane Strain": True, "Height": 0.01}
 
 
 class TestCriticalStretch(DamageConformance):

@@ -1,5 +1,6 @@
 """`peridyn new-plugin` makes packages that pip-install and whose own tests pass."""
 import os
+import re
 import subprocess
 import sys
 
@@ -25,6 +26,9 @@ def test_generated_plugin_installs_and_its_tests_pass(kind, tmp_path):
     run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", str(pkg / "tests")], cwd=pkg, capture_output=True, text=True, env=env)
     assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-2000:]
     if kind == "material":
+        # the kit's checks ran (moduli, momentum, damage, density, energy, ...), not just a few
+        passed = re.search(r"(\d+) passed", run.stdout)
+        assert passed and int(passed.group(1)) >= 17, run.stdout[-3000:]
         # installed, the plugin is found through its entry point and listed with its parameters
         listing = subprocess.run([sys.executable, "-m", "peridyn", "plugins"], capture_output=True, text=True, env=env)
         assert "My Material" in listing.stdout and "Bulk Modulus" in listing.stdout
