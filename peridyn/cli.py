@@ -50,8 +50,13 @@ def cmd_run(args) -> int:
     _log_setup(sim)
     try:
         sim.run_solvers()
-    finally:
-        sim.outputs.close()
+    except InstabilityError:
+        sim.outputs.close(complete=True)
+        raise
+    except BaseException:
+        sim.outputs.close(complete=False)
+        raise
+    sim.outputs.close(complete=True)
     _log_summary(sim, time.perf_counter() - wall0)
     return ExitCode.OK
 
@@ -99,18 +104,25 @@ def _run_parallel(args, comm, output_dir: Path, wall0: float) -> int:
         return ExitCode.INPUT_ERROR
     except Exception as exc:  # a failure on one rank must not leave the others waiting
         _abort(comm, exc, args)
+        return ExitCode.FAILURE
     _log_setup(sim)
     try:
         sim.run_solvers()
-    except InstabilityError as exc:  # detected collectively: every rank raises it at the same step
-        sim.outputs.close()
+    except InstabilityError as exc:
+        if not exc.collective:  # found on this rank alone: the others must be stopped
+            sim.outputs.close(complete=False)
+            _abort(comm, exc, args)
+            return ExitCode.UNSTABLE
+        sim.outputs.close(complete=True)  # every rank raises it at the same step
         if comm.rank == 0:
             print(f"error: {exc}", file=sys.stderr)
             print("the output written so far is kept and readable", file=sys.stderr)
         return ExitCode.UNSTABLE
     except BaseException as exc:
+        sim.outputs.close(complete=False)
         _abort(comm, exc, args)
-    sim.outputs.close()
+        return ExitCode.FAILURE
+    sim.outputs.close(complete=True)
     _log_summary(sim, time.perf_counter() - wall0)
     return ExitCode.OK
 
@@ -345,6 +357,17 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _quiet_floating_point() -> None:
+    """No NumPy floating-point warnings on stderr: every value that reaches a field, an output
+    frame or a condition is checked for NaN and inf and reported once, with its source."""
+    import warnings
+
+    import numpy as np
+
+    np.seterr(all="ignore")
+    warnings.simplefilter("ignore", RuntimeWarning)
+
+
 def _single_threaded_blas() -> None:
     """peridyn's parallelism is its numba kernels; BLAS thread pools that spin between calls
     steal their cores (measured: 60 % slower explicit runs on 2 cores). Set before numpy loads.
@@ -376,6 +399,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def _main(argv: list[str] | None) -> int:
     _single_threaded_blas()
+    _quiet_floating_point()
     parser = build_parser()
     args = parser.parse_args(argv)
     debug = args.debug

@@ -35,6 +35,15 @@ def sane(text: str, limit: int = MAX_PIECE) -> str:
     return out
 
 
+def missing_file(path: object, what: str) -> str:
+    """Why ``path`` cannot be opened as a file: ``"<what> 'x' is a folder, not a file"`` or
+    ``"<what> 'x' not found"``."""
+    import os
+
+    text = str(path)
+    return f"{what} {text!r} is a folder, not a file" if os.path.isdir(text) else f"{what} {text!r} not found"
+
+
 def format_path(path: Sequence[str | int]) -> str:
     """``("Materials", "My Elastic", "Bulk Modulus")`` -> ``Materials > My Elastic > Bulk Modulus``."""
     return " > ".join(str(p) for p in path)
@@ -113,9 +122,18 @@ class InputErrors(InputError):
 
 
 class InstabilityError(PeridynError):
-    """The run went unstable (non-finite values or energy growth); output so far is kept."""
+    """The run went unstable (non-finite values or energy growth); output so far is kept.
+
+    ``collective`` is True when every MPI rank raises it at the same step (the stability
+    monitor's reduced sums); False when one rank found it alone (a boundary condition's value
+    at its points), so the others must be stopped.
+    """
 
     exit_code = ExitCode.UNSTABLE
+
+    def __init__(self, message: str, *, collective: bool = True) -> None:
+        super().__init__(message)
+        self.collective = collective
 
 
 def raise_collected(errors: list[InputError]) -> None:

@@ -39,6 +39,28 @@ def _numeric_only(annotation: Any) -> bool:
     return bool(kinds & {float, int}) and bool not in kinds
 
 
+def _bool_for_number(annotation: Any, value: Any) -> bool:
+    """A boolean where the annotation wants a number (also inside a list of numbers)."""
+    if isinstance(value, bool):
+        return _numeric_only(annotation) or any(
+            typing.get_origin(a) in (list, tuple) and _element_numeric(a) for a in _alternatives(annotation)
+        )
+    if isinstance(value, (list, tuple)) and any(isinstance(v, bool) for v in value):
+        return any(typing.get_origin(a) in (list, tuple) and _element_numeric(a) for a in _alternatives(annotation))
+    return False
+
+
+def _alternatives(annotation: Any) -> tuple[Any, ...]:
+    if typing.get_origin(annotation) in (typing.Union, types.UnionType):
+        return typing.get_args(annotation)
+    return (annotation,)
+
+
+def _element_numeric(annotation: Any) -> bool:
+    args = [a for a in typing.get_args(annotation) if a is not Ellipsis]
+    return bool(args) and all(_numeric_only(a) for a in args)
+
+
 def _non_finite(value: Any) -> bool:
     if isinstance(value, float):
         return not math.isfinite(value)
@@ -74,7 +96,7 @@ class ModelParams(BaseModel):
             if alias not in data:
                 continue
             value = data[alias]
-            if isinstance(value, bool) and _numeric_only(f.annotation):
+            if _bool_for_number(f.annotation, value):
                 problems.append(f"{alias!r} must be a number, got the boolean {str(value).lower()}")
             elif _non_finite(value):
                 problems.append(f"{alias!r} must be finite, got {value!r}")

@@ -10,7 +10,6 @@ from pathlib import Path
 from typing import Any
 
 from ..core.errors import InputError, format_path
-
 from .source import (
     _BOOL,
     _DOUBLE,

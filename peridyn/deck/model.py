@@ -22,9 +22,9 @@ from typing import Any
 from pydantic import Field, field_validator
 
 from ..core.errors import InputError, raise_collected
-from .source import SECTION_NAMES
-from ..plugins.manager import Registry, get_registry
 from ..core.params import ModelParams
+from ..plugins.manager import Registry, get_registry
+from .source import SECTION_NAMES
 from .validation import validate_params
 
 log = logging.getLogger("peridyn.deck")

@@ -198,3 +198,5 @@ class _TreeBuilder:
         self.lines[path] = line
 
 
+def too_deep() -> str:
+    return "the deck is nested too deeply to be read"

@@ -6,8 +6,18 @@ from pathlib import Path
 from typing import Any
 
 from ..core.errors import InputError
-
-from .source import _BOOL, _DOUBLE, _INT, _STRING, DeckSource, Leaf, _convert, _TreeBuilder, log
+from .source import (
+    _BOOL,
+    _DOUBLE,
+    _INT,
+    _STRING,
+    DeckSource,
+    Leaf,
+    _convert,
+    _TreeBuilder,
+    log,
+    too_deep,
+)
 
 # --------------------------------------------------------------------------------------------
 # XML
@@ -155,7 +165,10 @@ class _XmlReader:
 
 def _parse_xml(data: str | bytes, filename: str) -> DeckSource:
     reader = _XmlReader(filename)
-    tree = reader.parse(data)
+    try:
+        tree = reader.parse(data)
+    except RecursionError:
+        raise InputError(too_deep(), file=filename, fix="a deck nests a few levels of ParameterLists") from None
     return DeckSource(tree=tree, path=Path(filename), fmt="xml", lines=reader.builder.lines)
 
 

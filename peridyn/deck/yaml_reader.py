@@ -5,9 +5,9 @@ from pathlib import Path
 from typing import Any
 
 import yaml
-from ..core.errors import InputError
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
+from ..core.errors import InputError
 from .source import (
     _BOOL,
     _DOUBLE,
@@ -19,6 +19,7 @@ from .source import (
     _kind_of_plain,
     _TreeBuilder,
     is_section_name,
+    too_deep,
 )
 
 # --------------------------------------------------------------------------------------------
@@ -33,6 +34,20 @@ class _AnchorFound(Exception):
         self.alias = alias
 
 
+class _LenientEscapes(dict):
+    """YAML's escapes in double-quoted scalars, and any other printable character kept with its
+    backslash: Peridigm's decks write ``"if(t <= 0.2)\\{ value = 0.0; \\}"`` (RTCompiler's
+    brace escape), which yaml-cpp reads and the expression compiler ignores the backslash of."""
+
+    def __contains__(self, ch: object) -> bool:
+        return dict.__contains__(self, ch) or (
+            isinstance(ch, str) and ch.isprintable() and ch not in yaml.scanner.Scanner.ESCAPE_CODES
+        )
+
+    def __getitem__(self, ch: str) -> str:
+        return dict.__getitem__(self, ch) if dict.__contains__(self, ch) else "\\" + ch
+
+
 class _DeckYamlLoader(yaml.SafeLoader):
     """A composer that records explicit tags and refuses anchors and aliases.
 
@@ -40,6 +55,7 @@ class _DeckYamlLoader(yaml.SafeLoader):
     """
 
     yaml_implicit_resolvers: dict = {}
+    ESCAPE_REPLACEMENTS = _LenientEscapes(yaml.SafeLoader.ESCAPE_REPLACEMENTS)
 
     def compose_node(self, parent: Node | None, index: Any) -> Node:  # noqa: D102
         event = self.peek_event()
@@ -227,6 +243,8 @@ def parse_yaml_text(text: str, filename: str = "<string>") -> DeckSource:
         ) from None
     except yaml.YAMLError as exc:
         raise _yaml_error(exc, filename) from None
+    except RecursionError:
+        raise InputError(too_deep(), file=filename, fix="a deck nests a few levels of lists; check the indentation and brackets") from None
     finally:
         loader.dispose()
     if not isinstance(document, MappingNode):
@@ -240,7 +258,10 @@ def parse_yaml_text(text: str, filename: str = "<string>") -> DeckSource:
         )
     reader = _YamlReader(filename)
     root = _unwrap(document)
-    tree = {} if root is None else reader.mapping(root, ())
+    try:
+        tree = {} if root is None else reader.mapping(root, ())
+    except RecursionError:
+        raise InputError(too_deep(), file=filename, fix="a deck nests a few levels of lists; check the indentation and brackets") from None
     return DeckSource(tree=tree, path=Path(filename), fmt="yaml", lines=reader.builder.lines)
 
 

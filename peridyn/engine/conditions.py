@@ -18,7 +18,7 @@ from typing import Any, ClassVar
 import numpy as np
 from pydantic import Field, field_validator
 
-from ..core.errors import InputError, raise_collected
+from ..core.errors import InputError, InstabilityError, raise_collected
 from ..core.fields import FieldSpec, Length, Relation
 from ..core.interfaces import Simulation
 from ..core.params import ModelParams
@@ -101,10 +101,27 @@ class BoundaryCondition:
         self._x = x[points]
 
     def evaluate(self, t: float) -> np.ndarray:
-        """The expression at the node set's reference coordinates, time ``t`` (shape (k,))."""
+        """The expression at the node set's reference coordinates, time ``t`` (shape (k,)).
+
+        A non-finite value stops the run before it reaches a field: an input error for an
+        initial condition, an instability (exit 3) naming the condition, point and time later."""
         x = self._x
-        value = self.expr(x=x[:, 0], y=x[:, 1], z=x[:, 2], t=t)
-        return np.broadcast_to(np.asarray(value, dtype=float), (len(self.points),))
+        with np.errstate(all="ignore"):
+            value = self.expr(x=x[:, 0], y=x[:, 1], z=x[:, 2], t=t)
+        value = np.broadcast_to(np.asarray(value, dtype=float), (len(self.points),))
+        if not np.all(np.isfinite(value)):
+            self._non_finite(value, t)
+        return value
+
+    def _non_finite(self, value: np.ndarray, t: float) -> None:
+        k = int(np.argmax(~np.isfinite(value)))
+        where = tuple(float(c) for c in self._x[k])
+        text = (f"Boundary Conditions > {self.entry_name}: the value {self.params.text!r} is {float(value[k])!r} "
+                f"at the point {where} at t = {t:.6g}")
+        if self.stage == "initial":
+            raise InputError(text.split(": ", 1)[1], path=("Boundary Conditions", self.entry_name),
+                             fix="give a value that is finite at every point of the node set")
+        raise InstabilityError(f"{text}; the run stops before using it (no output frame holds it)", collective=False)
 
     # hooks (override one) ------------------------------------------------------------------
     def apply_initial(self, sim: "Simulation") -> None:  # pragma: no cover - interface
@@ -267,6 +284,10 @@ def create_conditions(sim: Any) -> None:
                     fix=f"node sets: {', '.join(sorted(sim.node_sets)) or 'none'}",
                 )
             )
+            continue
+        if sim.node_sets[ns].size == 0:
+            errors.append(InputError(f"node set {bc.params.node_set!r} is empty: the condition would act on no point",
+                                     file=deck.file, path=bc.path + ("Node Set",), fix="give the node set at least one point"))
             continue
         obj = bc.cls(bc.params, entry_name=bc.name)
         members = sim.local_of_mothership[sim.node_sets[ns]]

@@ -8,12 +8,14 @@ from __future__ import annotations
 
 import difflib
 import logging
+import os
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..core.errors import InputError, raise_collected
+from ..core.errors import InputError, InstabilityError, raise_collected
 from ..core.fields import FieldSpec, Relation, Temporal, component_names
 from ..core.interfaces import Simulation
 
@@ -105,7 +107,12 @@ class OutputManager:
         for out in deck.outputs:
             for var in out.variables:
                 resolve(var, out.path + ("Output Variables", var))
+        taken = set(STANDARD_FIELDS) | set(material_fields) | set(sim.fields.specs) | set(registry.names("compute"))
         for entry in deck.computes:
+            if entry.name in taken:
+                errors.append(InputError(f"the output label {entry.name!r} is already the name of a field peridyn computes",
+                                         file=deck.file, path=entry.path + ("Output Label",), fix="choose another Output Label"))
+                continue
             obj = entry.cls(entry.params, label=entry.name)
             add_compute(entry.name, obj)
         raise_collected(errors)
@@ -190,9 +197,12 @@ class OutputManager:
         for w in self.writers:
             w.write(t)
 
-    def close(self) -> None:
+    def close(self, complete: bool = True) -> None:
+        """Close every file. ``complete``: the run ended or was stopped on purpose (finished, or
+        unstable): each file takes its final name. Otherwise (an error, an interrupt) the new
+        frames stay in ``NAME.partial.e`` and an earlier ``NAME.e`` is left as it was."""
         for w in self.writers:
-            w.close()
+            w.close(complete)
 
 
 class OutputWriter:
@@ -260,9 +270,40 @@ class OutputWriter:
         for v, cname, k in self.glob:
             arr = sim.fields[v.name]
             glob[cname] = float(arr[k])
+        self._check_finite(t)
         if comm.is_root:
             self._writer.write_step(t, nodal=nodal, element=element, glob=glob)
         self.frames += 1
+
+    def _check_finite(self, t: float) -> None:
+        """Stop (exit 3, on every rank) before a frame with a non-finite value is written,
+        naming the variable, the point and the time."""
+        sim = self.sim
+        n_owned = sim.num_owned
+        first = None  # (global id, variable) of the first non-finite value on this rank
+        for v in self.vars:
+            data = sim.fields[v.name]
+            rows = data if v.kind == "global" else data[:n_owned]
+            bad = ~np.isfinite(rows)
+            if bad.ndim > 1:
+                bad = bad.any(axis=tuple(range(1, bad.ndim)))
+            if bad.any():
+                gid = -1 if v.kind == "global" else int(sim.gid[int(np.argmax(bad))])
+                if first is None or gid < first[0]:
+                    first = (gid, v.name)
+        names = sorted(v.name for v in self.vars)
+        none = 2**62
+        code = none if first is None else (first[0] + 1) * (len(names) + 1) + names.index(first[1]) + 1
+        code = int(sim.comm.allreduce_min(code))
+        if code == none:
+            return
+        gid, name = code // (len(names) + 1) - 1, names[code % (len(names) + 1) - 1]
+        where = "" if gid < 0 else f" at point {gid + 1}"
+        raise InstabilityError(
+            f"{self.entry.section}: {name} is not finite{where} at t = {t:.6g}; the frame is not written (the file holds "
+            "the frames before it). Likely causes: a time step above the stable one, or a boundary condition, "
+            "initial condition or material parameter that produces NaN or inf"
+        )
 
     def _open(self) -> None:
         from ..io.exodus_writer import ExodusBlock, ExodusWriter
@@ -281,12 +322,12 @@ class OutputWriter:
             self._writer = _NullWriter()
             return
         if self.global_only:
-            self._writer = ExodusWriter.global_only(self.path, [c for _, c, _ in self.glob])
+            self._writer = ExodusWriter.global_only(self.partial_path, [c for _, c, _ in self.glob])
             return
         truth = np.array([[has for has in self.manager.blocks_with(v.name)] for v, _, _ in self.element], dtype=bool).T.reshape(len(blocks), len(self.element))
         node_sets = [(name, members) for name, members in sorted(sim.node_sets.items())]
         self._writer = ExodusWriter(
-            self.path,
+            self.partial_path,
             coords=disc.x,
             node_num_map=disc.gid + 1,
             blocks=blocks,
@@ -297,9 +338,22 @@ class OutputWriter:
             truth_table=truth,
         )
 
-    def close(self) -> None:
-        if self._writer is not None:
-            self._writer.close()
+    @property
+    def partial_path(self) -> Path:
+        """Where frames go while the run lasts: ``NAME.partial.e`` beside ``NAME.e``."""
+        return self.path.with_name(f"{self.path.stem}.partial{self.path.suffix}")
+
+    def close(self, complete: bool = True) -> None:
+        if self._writer is None:
+            return
+        self._writer.close()
+        if isinstance(self._writer, _NullWriter):
+            return
+        self._writer = None
+        if complete:
+            os.replace(self.partial_path, self.path)
+        else:
+            log.warning("the frames of this run are in %s; %s is left as it was", self.partial_path, self.path.name)
 
 
 class _NullWriter:

@@ -409,7 +409,10 @@ class Simulation:
     def _apply_initial_conditions(self) -> None:
         for c in self.conditions:
             if c.stage == "initial":
-                c.apply_initial(self)
+                try:
+                    c.apply_initial(self)
+                except InputError as exc:
+                    raise exc.with_context(file=self.deck.file) from None
 
     # ============================================================================================
     # what solvers call
@@ -579,13 +582,15 @@ class Simulation:
         for blk in self.blocks:
             K = blk.material.bulk_modulus
             if blk.horizon is not None:
-                d = blk.horizon
-                c = (18.0 * K) / ((((math.pi * d) * d) * d) * d)
+                d = np.float64(blk.horizon)
+                with np.errstate(all="ignore"):  # a horizon whose 4th power under- or overflows
+                    c = float((18.0 * K) / ((((math.pi * d) * d) * d) * d))
                 c_point = np.zeros(0)
             else:
                 h = self.horizon_local
                 c = 0.0
-                c_point = (18.0 * K) / ((((math.pi * h) * h) * h) * h)
+                with np.errstate(all="ignore"):
+                    c_point = (18.0 * K) / ((((math.pi * h) * h) * h) * h)
             critical_time_step_kernel(blk.start, blk.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Volume"], blk.density, c, c_point, dt)
         local = float(dt[: self.num_owned].min()) if self.num_owned else math.inf
         return self.comm.allreduce_min(local)

@@ -28,7 +28,7 @@ from typing import Any, ClassVar, Literal
 
 import numpy as np
 from .neighbors import compact
-from ..core.errors import InputError, raise_collected
+from ..core.errors import InputError, missing_file, raise_collected
 from pydantic import Field, ValidationError, model_validator
 
 from ..core.params import ModelParams
@@ -375,12 +375,12 @@ def read_exodus_polygons(
     fname = str(file)
     if not file.is_file():
         raise InputError(
-            f"Exodus mesh file {fname} not found", path=path,
+            missing_file(file, "Exodus mesh file"), path=path,
             fix="check the file name (relative to the deck's folder)",
         )
     try:
         ds = netCDF4.Dataset(fname, "r")
-    except OSError as exc:
+    except (OSError, RuntimeError, ValueError, UnicodeError) as exc:
         raise InputError(f"cannot read {fname} as an Exodus (netCDF) file: {exc}", path=path) from None
     try:
         ds.set_auto_mask(False)

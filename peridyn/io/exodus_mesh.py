@@ -35,7 +35,7 @@ from pydantic import Field
 from ..core.discretization import Discretization
 from ..core.interfaces import DiscretizationReader
 from ..core.params import ModelParams
-from ..core.errors import InputError
+from ..core.errors import InputError, missing_file
 from .nodesets import find_input_file
 from .textfile import min_element_radius
 
@@ -255,22 +255,28 @@ def read_exodus_mesh(path: Path | str) -> Discretization:
     file = str(path)
     if not path.is_file():
         raise InputError(
-            "mesh file not found",
+            missing_file(path, "mesh file"),
             file=file,
             path=("Discretization", "Input Mesh File"),
             fix="check the file name; relative names are relative to the deck's folder",
         )
     try:
         ds = netCDF4.Dataset(file, "r")
-    except OSError as exc:
+    except (OSError, RuntimeError, ValueError, UnicodeError) as exc:
         raise InputError(
-            f"not a readable Exodus II (netCDF) file ({exc})",
+            f"not a readable Exodus II (netCDF) file ({type(exc).__name__}: {exc})",
             file=file,
             fix="give an Exodus II mesh (genesis file, usually .g or .e)",
         ) from None
     try:
         ds.set_auto_mask(False)
         return _read_dataset(ds, file)
+    except (ValueError, IndexError, KeyError, UnicodeError, OverflowError, RuntimeError, OSError) as exc:
+        # past the checks _read_dataset makes, anything else is a damaged file
+        raise InputError(
+            f"the Exodus file is damaged or not laid out as Exodus II ({type(exc).__name__}: {exc})",
+            file=file, fix="regenerate or re-export the mesh",
+        ) from None
     finally:
         ds.close()
 

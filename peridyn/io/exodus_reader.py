@@ -38,7 +38,7 @@ def _dim(ds: netCDF4.Dataset, name: str) -> int:
 def _open(path: str | Path) -> netCDF4.Dataset:
     try:
         ds = netCDF4.Dataset(str(path), "r")
-    except (OSError, RuntimeError) as e:
+    except (OSError, RuntimeError, ValueError, UnicodeError) as e:
         raise InputError(f"cannot read Exodus file: {e}", file=str(path)) from None
     ds.set_auto_maskandscale(False)
     return ds

@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.errors import InputError
+from ..core.errors import InputError, missing_file
 
 __all__ = ["find_input_file", "is_node_set_file_name", "parse_node_set_value", "read_node_set_file"]
 
@@ -184,7 +184,7 @@ def parse_node_set_value(value: str, *, deck_dir: Path, path: tuple[str, ...], d
         file_path = find_input_file(name, deck_dir)
         if not file_path.is_file():
             raise InputError(
-                f"node-set file {name!r} not found (looked for {str(file_path)!r})",
+                f"{missing_file(file_path, 'node-set file')} (given as {name!r})",
                 file=deck_file,
                 path=path,
                 fix="check the file name; relative names are relative to the deck's folder, "

@@ -98,8 +98,18 @@ class EnergyMonitor:
       polynomially from rest); or
     * with a valid energy account, the balance error exceeds both the energy present before the
       growth began and half the energy present now, while the kinetic energy grew at each of
-      the last ``window // 2`` steps (a physical run keeps the error a small fraction).
+      the last ``window // 2`` steps (a physical run keeps the error a small fraction); or
+    * with a valid energy account and materials that report their stored energy, energy was
+      created: breaking bonds only dissipates energy, so the true stored energy
+      E0 + E - D (E0 at the start, D >= 0 dissipated) is never negative, and a run whose
+      E0 + E falls below ``-created_fraction`` of the largest energy present while the kinetic
+      energy grows has made kinetic energy from nothing. This is what sees a blow-up that
+      shatters a body: its bonds break and the balance closes, but the energy came from the
+      integrator.
     """
+
+    #: energy created, as a fraction of the largest energy present, that stops a run
+    created_fraction = 0.25
 
     def __init__(self, sim, dt: float, dt_estimate: float, *, window: int = 10, accounting: bool = True, batch: int | None = None) -> None:
         self.sim = sim
@@ -123,6 +133,17 @@ class EnergyMonitor:
         self.history: list[tuple[float, float]] = []  # (kinetic, energy scale) of recent steps
         self.max_balance = 0.0  # largest |balance| seen
         self.max_scale = abs(self.kinetic0)  # largest energy present at any time
+        #: stored energy at the start, when every material reports one (else None: no test of
+        #: created energy, since a body may start stretched)
+        self.stored0 = sim.stored_energy() if self.accounting and self._energy_known(sim) else None
+        if self.stored0 is not None:
+            self.max_scale = max(self.max_scale, abs(self.stored0))
+
+    @staticmethod
+    def _energy_known(sim) -> bool:
+        from ..core.interfaces import Material
+
+        return all(type(blk.material).stored_energy_density is not Material.stored_energy_density for blk in sim.blocks)
 
     def _kinetic_local(self) -> float:
         return kinetic_free_kernel(self.sim.num_owned, self.sim.fields["Velocity"], self.mass, self.free)
@@ -202,6 +223,10 @@ class EnergyMonitor:
         if all(r >= 2.0 for r in ratios):
             self._fail_growth(step, time, ke[-1] / ke[0] if ke[0] > 0 else math.inf)
         half = w // 2
+        if self.stored0 is not None and ke[-1] > ke[0]:
+            created = -(self.stored0 + self.stored)
+            if created > self.created_fraction * self.max_scale:
+                self._fail_created(step, time, created)
         if self.accounting and all(r > 1.0 for r in ratios[-half:]):
             before = self.history[0][1]
             if before > 0 and err > max(before, 0.5 * scale) and ke[-1] > 4.0 * ke[-half - 1]:
@@ -237,6 +262,14 @@ class EnergyMonitor:
         where = self._worst_point()
         raise InstabilityError(
             f"the run went unstable at step {step} (t = {time:.6g}): non-finite velocity or force at {where}; " + self._advice()
+        )
+
+    def _fail_created(self, step: int, time: float, created: float) -> None:
+        where = self._worst_point()
+        raise InstabilityError(
+            f"the run went unstable at step {step} (t = {time:.6g}): {created:.3g} of kinetic energy appeared that no load "
+            f"supplied and no stored energy released ({created / self.max_scale:.0%} of the largest energy of the run; bond "
+            f"breaking can only dissipate energy), fastest at {where}; " + self._advice()
         )
 
     def _fail_growth(self, step: int, time: float, growth: float, steps: int | None = None) -> None:

@@ -36,6 +36,7 @@ quadratic/cubic backtracking on 0.5 ||F||^2 with the Armijo-Goldstein condition,
 """
 from __future__ import annotations
 
+import difflib
 import logging
 import math
 import time as _time
@@ -49,7 +50,7 @@ from ..core.params import ModelParams
 from ..core.errors import PeridynError, ExitCode
 from .common import SolverSection
 from .linear import aztec_gmres, gdot, gnorm
-from .newton import ImplicitProblem, threads_for, load_times, solver_stats
+from .newton import ImplicitProblem, load_times, planned_load_steps, solver_stats, threads_for
 from .quasistatic import LoadStepKeys
 
 log = logging.getLogger("peridyn.solver")
@@ -64,10 +65,39 @@ class NOXConvergenceError(PeridynError):
 # ------------------------------------------------------------------------------------------------
 # parameters: the NOX option trees are accepted; the keys that change what runs are validated
 # ------------------------------------------------------------------------------------------------
-class _OptionTree(ModelParams):
-    """A NOX/AztecOO option list: the keys below are validated, other NOX keys are accepted."""
+#: NOX, AztecOO and Ifpack options Peridigm decks carry that peridyn accepts without using them
+#: (a key close to one of these, or to a key peridyn uses, is taken for a typo)
+NOX_OTHER_KEYS = frozenset({
+    "Maximum Step", "Recovery Step Type", "Sufficient Decrease", "Interval Width", "Curvature Condition",
+    "Optimize Slope Calculation", "Allowed Relative Increase", "Use Counters", "Throw Error on Prec Failure",
+    "RCM Reordering", "Graph Fill", "Overlap", "Ill-Conditioning Threshold", "Fill Factor", "Drop Tolerance",
+    "Preconditioner Operator", "Output Frequency", "Output Solver Details", "Output Processor",
+    "Output Precision", "Output Information", "Output Stream", "Error Stream", "Compute Scaling Manually",
+    "Preconditioner Reuse Policy", "Max Age Of Prec", "Restart Frequency", "Reduction Factor",
+    "Max Backtrack Iterations", "Minimum Step", "Default Step", "Recovery Step", "Max Iters",
+})
 
-    model_config = ConfigDict(frozen=True, extra="allow", populate_by_name=True)
+
+class _OptionTree(ModelParams):
+    """A NOX/AztecOO option list: the keys below are validated, other NOX keys are accepted
+    with a warning that peridyn does not use them; a key that looks like a mistyped known key
+    (``Max Iteration`` for ``Max Iterations``) is an error."""
+
+    model_config = ConfigDict(frozen=True, extra="allow", populate_by_name=True, allow_inf_nan=False)
+
+    @model_validator(mode="after")
+    def _unknown_keys(self):
+        extra = [k for k in (self.model_extra or {}) if k not in NOX_OTHER_KEYS]
+        if not extra:
+            return self
+        known = self.deck_names() + sorted(NOX_OTHER_KEYS)
+        for key in extra:
+            close = difflib.get_close_matches(str(key), known, n=1, cutoff=0.85)
+            if close:
+                raise ValueError(f"unknown key {key!r}: did you mean {close[0]!r}?")
+        log.warning("%s: %s not used by peridyn (accepted as NOX options)", type(self).__name__.removeprefix("NOX").removesuffix("Params"),
+                    ", ".join(repr(k) for k in extra))
+        return self
 
 
 class NOXLinearSolverParams(_OptionTree):
@@ -193,6 +223,9 @@ class NOXQuasiStaticSection(SolverSection):
 class NOXQuasiStatic(Solver):
     name = "NOXQuasiStatic"
     Params = NOXQuasiStaticSection
+
+    def planned_steps(self, sim) -> int | None:
+        return planned_load_steps(self.params, self.params.nox)
 
     @classmethod
     def tangent_request(cls, params) -> str:

@@ -23,6 +23,9 @@ from .common import EnergyMonitor, SolverSection
 
 log = logging.getLogger("peridyn.solver")
 
+#: largest energy balance error of a trusted run, relative to its energy (see EnergyMonitor)
+SUSPECT_BALANCE_ERROR = 0.03
+
 
 class VerletParams(ModelParams):
     fixed_dt: float | None = Field(None, alias="Fixed dt", gt=0, description="time step (T); default: the critical time step estimate")
@@ -129,12 +132,18 @@ class Verlet(Solver):
             acceleration_kick_kernel(n, f["Force_Density"], f["External_Force_Density"] if has_b else no_b, rho, dt2, a, v, True)
             monitor.force_work(du, f_old, f["Force_Density"], b_old, f["External_Force_Density"] if has_b else None)
             sim.load_data(t)
+            monitor.check(step, t)
             sim.write_output(t)
             sim.advance()
-            monitor.check(step, t)
             progress.update(step)
         monitor.flush()
         progress.close()
+        if monitor.accounting and monitor.max_error > SUSPECT_BALANCE_ERROR:
+            log.warning(
+                "%s: the energy balance error reached %.1f%% of the energy of the run (stable runs stay below 1%%): "
+                "the time step may be too large for this model; check with a smaller 'Safety Factor'",
+                self.section, 100.0 * monitor.max_error,
+            )
         wall = _time.perf_counter() - wall0
         sim.stats.setdefault("solvers", []).append(
             {
