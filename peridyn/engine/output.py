@@ -291,13 +291,10 @@ class OutputWriter:
                 gid = -1 if v.kind == "global" else int(sim.gid[int(np.argmax(bad))])
                 if first is None or gid < first[0]:
                     first = (gid, v.name)
-        names = sorted(v.name for v in self.vars)
-        none = 2**62
-        code = none if first is None else (first[0] + 1) * (len(names) + 1) + names.index(first[1]) + 1
-        code = int(sim.comm.allreduce_min(code))
-        if code == none:
+        found = [f for f in sim.comm.allgather(first) if f is not None]
+        if not found:
             return
-        gid, name = code // (len(names) + 1) - 1, names[code % (len(names) + 1) - 1]
+        gid, name = min(found)
         where = "" if gid < 0 else f" at point {gid + 1}"
         raise InstabilityError(
             f"{self.entry.section}: {name} is not finite{where} at t = {t:.6g}; the frame is not written (the file holds "
