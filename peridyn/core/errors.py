@@ -96,6 +96,12 @@ class InputError(PeridynError):
             text += f"; {sane(self.fix)}"
         return text
 
+    def in_file(self, file: str | None) -> "InputError":
+        """This error with ``file`` filled in where it names none (every line of a group)."""
+        if self.file or not file:
+            return self
+        return self.with_context(file=file)
+
     def with_context(self, *, file: str | None = None, prefix: Sequence[str | int] = ()) -> "InputError":
         """A copy with ``file`` filled in (when missing) and ``prefix`` put before the path."""
         return InputError(
@@ -114,6 +120,9 @@ class InputErrors(InputError):
         self.errors = list(errors)
         first = self.errors[0]
         super().__init__(first.message, file=first.file, path=first.path, fix=first.fix, line=first.line)
+
+    def in_file(self, file: str | None) -> "InputError":  # noqa: D102 - same contract as the base class
+        return InputErrors([e.in_file(file) for e in self.errors])
 
     def one_line(self) -> str:  # noqa: D102 - same contract as the base class
         if not getattr(self, "errors", None):

@@ -58,7 +58,10 @@ class Simulation:
         self.stats: dict[str, Any] = {}
         self.energy = None  # set by explicit solvers (EnergyMonitor)
         t0 = _time.perf_counter()
-        self._setup()
+        try:
+            self._setup()
+        except InputError as exc:  # every message names a file
+            raise exc.in_file(deck.file) from None
         self.timers["setup"] = _time.perf_counter() - t0
 
     # ============================================================================================

@@ -31,7 +31,7 @@ from .neighbors import compact
 from ..core.errors import InputError, missing_file, raise_collected
 from pydantic import Field, ValidationError, model_validator
 
-from ..core.params import ModelParams
+from ..core.params import DECK_CONTEXT, ModelParams
 from .bond_filter_kernels import (
     POLYGON_ELEMENT_TYPES,
     _disk_kernel,
@@ -487,7 +487,7 @@ def make_filter(params: Mapping[str, Any], *, deck_dir: Path | str, path: Sequen
         raise InputError(f"invalid type {ftype!r} for {where}", path=path + ("Type",), fix=fix)
     cls = FILTER_TYPES[ftype]
     try:
-        p = cls.Params.model_validate(dict(params))
+        p = cls.Params.model_validate(dict(params), context={DECK_CONTEXT: True})
     except ValidationError as exc:
         raise_collected(_validation_errors(exc, cls.Params, path))
         raise  # pragma: no cover - raise_collected always raises here
