@@ -140,7 +140,6 @@ def _abort(comm, exc: BaseException, args) -> None:
 
 
 def _log_setup(sim) -> None:
-    nl = sim.bonds
     log.info(
         "%s: %d points in %d block(s), %d bonds; set-up %.2f s (mesh %.2f s, neighbors %.2f s)",
         Path(sim.deck.file).name,
@@ -425,6 +424,12 @@ def _main(argv: list[str] | None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return int(ExitCode.INTERRUPTED)
+    except MemoryError as exc:
+        if debug:
+            raise
+        print(f"error: {getattr(args, 'deck', '')}: the model does not fit in memory ({exc}); use fewer points or a smaller "
+              "horizon", file=sys.stderr)
+        return int(ExitCode.INPUT_ERROR)
     except PeridynError as exc:
         if debug:
             raise

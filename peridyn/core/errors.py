@@ -22,7 +22,7 @@ class ExitCode(IntEnum):
 
 
 #: longest piece (file, path, message, fix) of an error line before it is shortened
-MAX_PIECE = 200
+MAX_PIECE = 120
 
 
 def sane(text: str, limit: int = MAX_PIECE) -> str:
@@ -41,7 +41,11 @@ def missing_file(path: object, what: str) -> str:
     import os
 
     text = str(path)
-    return f"{what} {text!r} is a folder, not a file" if os.path.isdir(text) else f"{what} {text!r} not found"
+    try:
+        folder = os.path.isdir(text)
+    except (OSError, ValueError):  # a name the system refuses
+        folder = False
+    return f"{what} {text!r} is a folder, not a file" if folder else f"{what} {text!r} not found"
 
 
 def format_path(path: Sequence[str | int]) -> str:
@@ -91,7 +95,7 @@ class InputError(PeridynError):
             where.append(sane(f"{self.file}:{self.line}" if self.line else self.file))
         if self.path:
             where.append(sane(format_path(self.path)))
-        text = ": ".join(where + [sane(self.message, 2 * MAX_PIECE)])
+        text = ": ".join(where + [sane(self.message, 200)])
         if self.fix:
             text += f"; {sane(self.fix)}"
         return text

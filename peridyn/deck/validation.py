@@ -58,10 +58,10 @@ def explain(kind: str, ctx: dict[str, Any], got: Any, msg: str) -> tuple[str, st
         return f"must be {words} {limit}{shown}", f"give a value {words} {limit}"
     if kind == "finite_number":
         return f"must be a finite number{shown}", "give a finite value"
-    if kind in ("float_parsing", "float_type", "int_type", "int_parsing", "int_from_float"):
+    if kind.startswith(("float_", "int_")):
         whole = kind.startswith("int")
         what = "a whole number" if whole else "a number"
-        return f"must be {what}{shown}", ("write an integer such as 10" if whole else "write a number such as 2.5e9")
+        return f"must be {what}{shown}", ("write an integer below 2^31, such as 10" if whole else "write a number such as 2.5e9")
     if kind in ("bool_parsing", "bool_type"):
         return f"must be true or false{shown}", "write true or false"
     if kind in ("string_type", "string_sub_type"):

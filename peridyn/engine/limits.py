@@ -32,8 +32,9 @@ log = logging.getLogger("peridyn.engine")
 ENV = "PERIDYN_NO_LIMITS"
 #: fields, ids and orderings of one point, with headroom (cube40: about 600 bytes measured)
 BYTES_PER_POINT = 1024
-#: int32 neighbor, float64 bond length, reverse index, temporaries of the search and sort
-BYTES_PER_BOND = 24
+#: int32 neighbor, float64 bond length and damage, reverse and transposed indices, and the
+#: temporaries of the search, the sort and a grid generator's candidate lists
+BYTES_PER_BOND = 64
 #: bond evaluations per second per run, a low figure for the LPS kernels on one core
 BOND_RATE = 5.0e7
 MAX_STEPS = 1.0e9

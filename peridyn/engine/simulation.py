@@ -174,9 +174,13 @@ class Simulation:
             i = int(np.argmax(bad))
             raise InputError(
                 f"point {int(disc.gid[i]) + 1} has position {tuple(float(c) for c in disc.x[i])} and volume {float(disc.volume[i])!r}",
-                file=str(disc.source or self.deck.file), path=self.deck.discretization.path,
+                file=self._mesh_file(disc), path=self.deck.discretization.path,
                 fix="every point needs a finite position and a positive finite volume",
             )
+
+    def _mesh_file(self, disc) -> str:
+        """The mesh file the points came from, or the deck for generated points."""
+        return disc.source if disc.source and Path(disc.source).is_file() else self.deck.file
 
     def _point_horizons(self, disc) -> np.ndarray:
         from ..deck.expressions import compile_expression
@@ -369,8 +373,8 @@ class Simulation:
             j = int(self.bonds.neighbors[b])
             raise InputError(
                 f"points {int(self.gid[i]) + 1} and {int(self.gid[j]) + 1} are at the same position {tuple(float(c) for c in x[i])}",
-                file=str(disc.source or self.deck.file), path=self.deck.discretization.path,
-                fix="remove duplicate points from the mesh",
+                file=self._mesh_file(disc), path=self.deck.discretization.path,
+                fix="remove duplicate points from the mesh, or give the generator a finite extent",
             )
         if "Horizon" in s:
             s["Horizon"][:] = self.horizon_local
@@ -393,6 +397,13 @@ class Simulation:
 
 
     def _warn_isolated(self) -> None:
+        if self.num_bonds_global == 0 and self.num_global > 1:
+            spacing = float(np.cbrt(np.median(self.discretization.volume)))
+            horizons = ", ".join(f"{blk.name}: {blk.horizon_text}" for blk in self.blocks)
+            raise InputError(
+                f"no point has a neighbor: the horizons ({horizons}) are below the point spacing (about {spacing:.3g})",
+                file=self.deck.file, path=("Blocks",), fix="give horizons of about three point spacings",
+            )
         counts = self.bonds.counts()[: self.num_owned]
         lonely = np.nonzero(counts == 0)[0]
         total = self.comm.allreduce_sum(int(lonely.size))

@@ -256,7 +256,6 @@ def read_exodus_mesh(path: Path | str) -> Discretization:
     if not path.is_file():
         raise InputError(
             missing_file(path, "mesh file"),
-            file=file,
             path=("Discretization", "Input Mesh File"),
             fix="check the file name; relative names are relative to the deck's folder",
         )

@@ -43,6 +43,14 @@ _COMMENT_STARTS = ("#", "/", "*")
 _DIGITS_ONLY = re.compile(r"[0-9\s]*\Z")
 
 
+def _exists(path: Path) -> bool:
+    """Whether ``path`` exists; False for names the system refuses (too long, NUL bytes)."""
+    try:
+        return path.exists()
+    except (OSError, ValueError):
+        return False
+
+
 def find_input_file(name: str, deck_dir: Path) -> Path:
     """The path of an input file named in a deck (mesh, node-set file).
 
@@ -55,10 +63,10 @@ def find_input_file(name: str, deck_dir: Path) -> Path:
     if path.is_absolute():
         return path
     candidate = Path(deck_dir) / path
-    if candidate.exists():
+    if _exists(candidate):
         return candidate
     fallback = Path(deck_dir) / path.name
-    if path.name and fallback.is_file() and fallback != candidate:
+    if path.name and _exists(fallback) and fallback.is_file() and fallback != candidate:
         _log.warning("%s not found; using %s from the deck's folder", candidate, fallback)
         return fallback
     return candidate
@@ -182,9 +190,9 @@ def parse_node_set_value(value: str, *, deck_dir: Path, path: tuple[str, ...], d
     if is_node_set_file_name(value):
         name = value.strip()
         file_path = find_input_file(name, deck_dir)
-        if not file_path.is_file():
+        if not (_exists(file_path) and file_path.is_file()):
             raise InputError(
-                f"{missing_file(file_path, 'node-set file')} (given as {name!r})",
+                missing_file(file_path, "node-set file") if _exists(file_path.parent) else f"node-set file {name!r} not found",
                 file=deck_file,
                 path=path,
                 fix="check the file name; relative names are relative to the deck's folder, "

@@ -24,7 +24,7 @@ from pydantic import Field
 from ..core.discretization import Discretization
 from ..core.interfaces import DiscretizationReader
 from ..core.params import ModelParams
-from ..core.errors import InputError
+from ..core.errors import InputError, missing_file
 from .nodesets import find_input_file
 
 __all__ = ["TextFile", "TextFileParams", "read_text_mesh", "min_element_radius"]
@@ -70,10 +70,9 @@ def read_text_mesh(path: Path | str) -> Discretization:
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8", errors="replace")
-    except FileNotFoundError:
+    except (FileNotFoundError, IsADirectoryError):
         raise InputError(
-            "text mesh file not found",
-            file=str(path),
+            missing_file(path, "text mesh file"),
             path=("Discretization", "Input Mesh File"),
             fix="check the file name; relative names are relative to the deck's folder",
         ) from None

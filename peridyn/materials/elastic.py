@@ -437,7 +437,6 @@ class Elastic(Material):
         return specs
 
     def _common(self, block: BlockView):
-        s = block.fields
         kind = block.influence.kind
         return kind, block.horizon, self.omega_table
 

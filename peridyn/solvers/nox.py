@@ -312,7 +312,6 @@ class NOXRun:
             steps = lin.steps
 
             def apply(r):
-                rb = r.reshape(-1, 3)
                 z = r / d
                 for _ in range(steps - 1):
                     z = z + (r - np.einsum("kij,kj->ki", inv, z.reshape(-1, 3)).reshape(-1)) / d
@@ -358,7 +357,6 @@ class NOXRun:
         precond = None
         if self.p.matrix_free:
             norm_s = float(np.sqrt(self._dot(s, s)))
-            tmp = np.empty_like(s)
 
             def matvec(w, out):
                 nw = float(np.sqrt(self._dot(w, w)))
