@@ -53,6 +53,12 @@ def error_for(h, solver, **kw):
         ({"Final Time": 1.0, "NOXQuasiStatic": {"Number of Load Steps": 1, "Direction": {"Method": "Broyden"}}}, "Solver > NOXQuasiStatic > Direction > Method", "Newton"),
         ({"Final Time": 1.0, "NOXQuasiStatic": {"Number of Load Steps": 1}}, "Solver > NOXQuasiStatic", "Direction"),
         (
+            {"Final Time": 1.0, "NOXQuasiStatic": {"Number of Load Steps": 1, "Direction": {"Method": "Newton", "Newton": {"Linear Solver": {"Max Iteration": 3}}}}},
+            "Solver > NOXQuasiStatic > Direction > Newton > Linear Solver",
+            "unknown key 'Max Iteration': did you mean 'Max Iterations'?",
+        ),
+        ({"Final Time": 0.0, "QuasiStatic": {"Number of Load Steps": 1}}, "Solver", "must be later than 'Initial Time'"),
+        (
             {
                 "Final Time": 1.0,
                 "Peridigm Preconditioner": "Block 3x3",
