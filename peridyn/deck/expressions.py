@@ -72,8 +72,18 @@ class ExpressionError(ValueError):
 
     def _message(self) -> str:
         where = f" at column {self.position + 1}" if self.position >= 0 else ""
-        msg = f"{self.reason}{where} in {self.text!r}"
+        msg = f"{self.reason}{where} in {self._excerpt()!r}"
         return f"{msg}; {self.hint}" if self.hint else msg
+
+    def _excerpt(self, width: int = 60) -> str:
+        """The text, or for a long one the part around the position (``...`` marks cuts)."""
+        text = self.text
+        if len(text) <= width:
+            return text
+        at = self.position if self.position >= 0 else 0
+        start = max(0, min(at - width // 2, len(text) - width))
+        cut = text[start : start + width]
+        return ("..." if start > 0 else "") + cut + ("..." if start + width < len(text) else "")
 
     def __str__(self) -> str:
         return self._message()

@@ -262,8 +262,9 @@ def read_exodus_mesh(path: Path | str) -> Discretization:
     try:
         ds = netCDF4.Dataset(file, "r")
     except (OSError, RuntimeError, ValueError, UnicodeError) as exc:
+        reason = getattr(exc, "strerror", None) or str(exc).split(": '")[0]
         raise InputError(
-            f"not a readable Exodus II (netCDF) file ({type(exc).__name__}: {exc})",
+            f"mesh file {path.name!r} is not a readable Exodus II (netCDF) file ({reason})",
             file=file,
             fix="give an Exodus II mesh (genesis file, usually .g or .e)",
         ) from None
@@ -273,7 +274,7 @@ def read_exodus_mesh(path: Path | str) -> Discretization:
     except (ValueError, IndexError, KeyError, UnicodeError, OverflowError, RuntimeError, OSError) as exc:
         # past the checks _read_dataset makes, anything else is a damaged file
         raise InputError(
-            f"the Exodus file is damaged or not laid out as Exodus II ({type(exc).__name__}: {exc})",
+            f"mesh file {path.name!r} is damaged or not laid out as Exodus II ({type(exc).__name__}: {str(exc)[:80]})",
             file=file, fix="regenerate or re-export the mesh",
         ) from None
     finally:
