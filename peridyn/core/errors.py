@@ -22,7 +22,7 @@ class ExitCode(IntEnum):
 
 
 #: longest piece (file, path, message, fix) of an error line before it is shortened
-MAX_PIECE = 120
+MAX_PIECE = 100
 
 
 def sane(text: str, limit: int = MAX_PIECE) -> str:
@@ -95,7 +95,7 @@ class InputError(PeridynError):
             where.append(sane(f"{self.file}:{self.line}" if self.line else self.file))
         if self.path:
             where.append(sane(format_path(self.path)))
-        text = ": ".join(where + [sane(self.message, 200)])
+        text = ": ".join(where + [sane(self.message, 240)])
         if self.fix:
             text += f"; {sane(self.fix)}"
         return text

@@ -230,7 +230,10 @@ def _unwrap(document: MappingNode) -> MappingNode | None:
 
 def parse_yaml_text(text: str, filename: str = "<string>") -> DeckSource:
     """Load a Peridigm YAML deck from ``text`` (``filename`` is used in messages and ``path``)."""
-    loader = _DeckYamlLoader(text)
+    try:
+        loader = _DeckYamlLoader(text)
+    except yaml.YAMLError as exc:  # a character YAML does not allow (NUL, ESC, ...)
+        raise _yaml_error(exc, filename) from None
     try:
         document = loader.get_single_node()
     except _AnchorFound as exc:

@@ -32,6 +32,7 @@ from ..core.errors import InputError, missing_file, raise_collected
 from pydantic import Field, ValidationError, model_validator
 
 from ..core.params import DECK_CONTEXT, ModelParams
+from ..deck.validation import explain
 from .bond_filter_kernels import (
     POLYGON_ELEMENT_TYPES,
     _disk_kernel,
@@ -455,11 +456,12 @@ def _validation_errors(exc: ValidationError, params_cls: type[ModelParams], path
             out.append(InputError(f"unknown key {key!r}", path=path + ((key,) if key else ()), fix=fix))
         elif err.get("type") == "missing":
             out.append(InputError("missing required key", path=path + ((key,) if key else ())))
-        else:
-            msg = err.get("msg", "invalid value")
-            if msg.startswith("Value error, "):
-                msg = msg[len("Value error, "):]
+        elif err.get("type") in ("value_error", "assertion_error"):
+            msg = str(err.get("msg", "invalid value")).removeprefix("Value error, ")
             out.append(InputError(msg, path=path + ((key,) if key else ())))
+        else:
+            problem, fix = explain(err["type"], err.get("ctx") or {}, err.get("input"), str(err.get("msg", "invalid value")))
+            out.append(InputError(problem, path=path + ((key,) if key else ()), fix=fix))
     return out
 
 

@@ -192,7 +192,7 @@ def parse_node_set_value(value: str, *, deck_dir: Path, path: tuple[str, ...], d
         file_path = find_input_file(name, deck_dir)
         if not (_exists(file_path) and file_path.is_file()):
             raise InputError(
-                missing_file(file_path, "node-set file") if _exists(file_path.parent) else f"node-set file {name!r} not found",
+                missing_file(name, "node-set file") if not _exists(file_path) else f"node-set file {name!r} is a folder, not a file",
                 file=deck_file,
                 path=path,
                 fix="check the file name; relative names are relative to the deck's folder, "

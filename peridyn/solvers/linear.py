@@ -167,9 +167,9 @@ def belos_cg(matvec, b: np.ndarray, tol: float, maxiter: int, comm=None) -> Solv
         it += 1
         matvec(p, Ap)
         pAp = gsum(comm, seq_dot(p, Ap))
+        if not (pAp > 0.0 and math.isfinite(pAp)):
+            return SolveResult(x, False, it, f"CG met the curvature p.Ap = {pAp:.3g} (the matrix is not positive definite, or the load overflows)")
         alpha = rz / pAp
-        if not alpha > 0.0:
-            return SolveResult(x, False, it, "CG met a non-positive curvature p.Ap (the matrix is not positive definite)")
         rz_old = rz
         rz = gsum(comm, cg_update_kernel(x, r, p, Ap, alpha))
         rnorm = math.sqrt(rz)

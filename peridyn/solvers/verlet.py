@@ -65,7 +65,8 @@ class Verlet(Solver):
                 p.safety_factor,
             )
         elif p.fixed_dt is not None and dt > dt_crit:
-            log.warning("%s: the time step %.4g exceeds the critical time step estimate %.4g (ratio %.2f)", self.section, dt, dt_crit, dt / dt_crit)
+            log.warning("%s: the time step %.4g exceeds the critical time step estimate %.4g (ratio %.3g)", self.section, dt, dt_crit,
+                        dt / dt_crit if dt_crit > 0 else math.inf)
         return dt, dt_crit
 
     def planned_steps(self, sim) -> int:
