@@ -371,8 +371,10 @@ def _single_threaded_blas() -> None:
     """peridyn's parallelism is its numba kernels; BLAS thread pools that spin between calls
     steal their cores (measured: 60 % slower explicit runs on 2 cores). Set before numpy loads.
     Under MPI, each rank gets its share of the node's cores for its numba threads (unless
-    NUMBA_NUM_THREADS is set), and idle threads sleep instead of spinning, so ranks and threads
-    do not compete for cores (see docs/parallel.md)."""
+    NUMBA_NUM_THREADS is set). Idle threads sleep instead of spinning (OMP_WAIT_POLICY=PASSIVE
+    unless set), so ranks, threads and other programs do not fight for cores: with one core
+    busy elsewhere, two threads take 2.2 s on the quickstart like one thread, against 3.3 s
+    spinning (benchmarks/busy_machine.py, docs/parallel.md)."""
     for var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS", "VECLIB_MAXIMUM_THREADS"):
         os.environ.setdefault(var, "1")
     from .parallel.comm import launched_with_mpi, ranks_on_this_node
@@ -380,7 +382,10 @@ def _single_threaded_blas() -> None:
     if launched_with_mpi():
         cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
         os.environ.setdefault("NUMBA_NUM_THREADS", str(max(1, cores // ranks_on_this_node())))
-        os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+    # idle numba threads sleep instead of spinning: a spinning thread holds a core another
+    # process needs, and a thread that process preempts stalls the spinning one at the next
+    # barrier (measured in benchmarks/busy_machine.py)
+    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 
 def main(argv: list[str] | None = None) -> int:
