@@ -22,7 +22,7 @@ class ExitCode(IntEnum):
 
 
 #: longest piece (file, path, message, fix) of an error line before it is shortened
-MAX_PIECE = 100
+MAX_PIECE = 140
 
 
 def sane(text: str, limit: int = MAX_PIECE) -> str:

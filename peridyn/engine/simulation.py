@@ -23,7 +23,7 @@ from ..core.interfaces import BlockView
 from ..deck.model import Deck, ModelEntry
 from ..geometry.influence import InfluenceFunction
 from ..parallel.comm import SerialComm
-from . import limits
+from . import checks, limits
 from .blocks import Block, plan_fusion
 from .conditions import create_conditions
 from .kernels import (
@@ -80,7 +80,7 @@ class Simulation:
         t0 = _time.perf_counter()
         disc = reader.read()
         disc.validate()
-        self._check_points(disc)
+        checks.finite_points(disc, checks.mesh_file(disc, deck.file), dentry.path)
         self.discretization = disc
         self.timers["read mesh"] = _time.perf_counter() - t0
         self.num_global = disc.num_points
@@ -105,7 +105,7 @@ class Simulation:
         self._make_views()
         plan_fusion(self)
         self.num_bonds_global = int(self.comm.allreduce_sum(int(self.bonds.num_bonds)))
-        self._warn_isolated()
+        checks.connected(self)
         self._apply_initial_conditions()
         for blk in self.blocks:
             blk.material.initialize(blk.view)
@@ -166,21 +166,6 @@ class Simulation:
         self.block_specs = specs
         index_of_id = {bid: k for k, (_, bid, _) in enumerate(specs)}
         self.block_index_mothership = np.array([index_of_id[b] for b in disc.block_id], dtype=np.int64) if disc.num_points else np.zeros(0, np.int64)
-
-    def _check_points(self, disc) -> None:
-        """Coordinates and volumes must be finite, volumes positive."""
-        bad = ~np.isfinite(disc.x).all(axis=1) | ~(np.isfinite(disc.volume) & (disc.volume > 0))
-        if np.any(bad):
-            i = int(np.argmax(bad))
-            raise InputError(
-                f"point {int(disc.gid[i]) + 1} has position {tuple(float(c) for c in disc.x[i])} and volume {float(disc.volume[i])!r}",
-                file=self._mesh_file(disc), path=self.deck.discretization.path,
-                fix="every point needs a finite position and a positive finite volume",
-            )
-
-    def _mesh_file(self, disc) -> str:
-        """The mesh file the points came from, or the deck for generated points."""
-        return disc.source if disc.source and Path(disc.source).is_file() else self.deck.file
 
     def _point_horizons(self, disc) -> np.ndarray:
         from ..deck.expressions import compile_expression
@@ -366,16 +351,7 @@ class Simulation:
         s["Coordinates"][:] = x
         s["Volume"][:] = disc.volume[self.mothership_of_local]
         bond_length_kernel(self.num_local, self.bonds.offsets, self.bonds.neighbors, x, s["Bond_Length"])
-        zeta = s["Bond_Length"]
-        if zeta.size and not zeta.min() > 0.0:
-            b = int(np.argmin(zeta))
-            i = int(np.searchsorted(self.bonds.offsets, b, side="right")) - 1
-            j = int(self.bonds.neighbors[b])
-            raise InputError(
-                f"points {int(self.gid[i]) + 1} and {int(self.gid[j]) + 1} are at the same position {tuple(float(c) for c in x[i])}",
-                file=self._mesh_file(disc), path=self.deck.discretization.path,
-                fix="remove duplicate points from the mesh, or give the generator a finite extent",
-            )
+        checks.no_coincident_points(self, disc)
         if "Horizon" in s:
             s["Horizon"][:] = self.horizon_local
 
@@ -394,31 +370,6 @@ class Simulation:
                 damage_symmetric=bool(blk.damage is not None and blk.damage.symmetric),
                 influence=self.influence,
             )
-
-
-    def _warn_isolated(self) -> None:
-        if self.num_bonds_global == 0 and self.num_global > 1:
-            spacing = float(np.cbrt(np.median(self.discretization.volume)))
-            horizons = ", ".join(f"{blk.name}: {blk.horizon_text}" for blk in self.blocks)
-            raise InputError(
-                f"no point has a neighbor: the horizons ({horizons}) are below the point spacing (about {spacing:.3g})",
-                file=self.deck.file, path=("Blocks",), fix="give horizons of about three point spacings",
-            )
-        counts = self.bonds.counts()[: self.num_owned]
-        lonely = np.nonzero(counts == 0)[0]
-        total = self.comm.allreduce_sum(int(lonely.size))
-        if total:
-            ids = ", ".join(str(int(g) + 1) for g in self.gid[lonely[:5]])
-            log.warning(
-                "%d point(s) have no neighbors (e.g. point %s): they feel no internal force and move freely; "
-                "check the horizon against the point spacing",
-                total,
-                ids or "on another rank",
-            )
-
-    # -- conditions ----------------------------------------------------------------------------
-    def _reference_x(self) -> np.ndarray:
-        return self.discretization.x[self.mothership_of_local]
 
     def _apply_initial_conditions(self) -> None:
         for c in self.conditions:

@@ -195,8 +195,7 @@ def parse_node_set_value(value: str, *, deck_dir: Path, path: tuple[str, ...], d
                 missing_file(name, "node-set file") if not _exists(file_path) else f"node-set file {name!r} is a folder, not a file",
                 file=deck_file,
                 path=path,
-                fix="check the file name; relative names are relative to the deck's folder, "
-                "and an inline list of point numbers must contain a space (\"1 2\")",
+                fix=f"looked in {str(file_path.parent)!r}; an inline list of point numbers needs a space (\"1 2\")",
             )
         return read_node_set_file(file_path, deck_path=path)
     ids = _parse_ids(value.split(), where="inline node set", file=deck_file, path=path, line=None)
