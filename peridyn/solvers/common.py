@@ -253,8 +253,10 @@ class EnergyMonitor:
 
     def _advice(self) -> str:
         ratio = self.dt / self.dt_estimate if self.dt_estimate > 0 else float("inf")
+        if not ratio < 1e3:  # a broken estimate (a density of 1e-297, say): no thousand-digit number
+            return f"the time step {self.dt:.4g} is far above the stable estimate {self.dt_estimate:.4g}; check the density and moduli"
         return (
-            f"the time step {self.dt:.4g} is {ratio:.3g} times the stable estimate {self.dt_estimate:.4g}; "
+            f"the time step {self.dt:.4g} is {ratio:.2f} times the stable estimate {self.dt_estimate:.4g}; "
             f"use 'Safety Factor' <= 1 or a 'Fixed dt' below {self.dt_estimate:.4g}"
         )
 

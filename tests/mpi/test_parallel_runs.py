@@ -180,6 +180,32 @@ def test_an_unstable_run_stops_on_every_rank_at_the_serial_step(tmp_path):
     assert steps[0] <= 50 and steps[1] == steps[0], steps
 
 
+def test_a_nan_boundary_value_on_one_rank_stops_every_rank(tmp_path):
+    """A prescribed displacement that turns NaN is found by the rank that owns its points alone;
+    every rank stops (no hang) with exit status 3 and the message naming the condition, and the
+    output holds no non-finite value."""
+    import netCDF4
+
+    from peridyn.testing import node_set_ids
+
+    material = {"Material Model": "Elastic Bond Based", "Density": 7800.0, "Bulk Modulus": 130.0e9}
+    tree = cube_deck(material, shape=(12, 3, 3), spacing=1e-3)
+    tree["Boundary Conditions"] = {
+        "End Node Set": node_set_ids(tree, lambda x: x[:, 0] > 10e-3),
+        "Pull": {"Type": "Prescribed Displacement", "Node Set": "End Node Set", "Coordinate": "x", "Value": "(t - t)/(t - t)"},
+    }
+    tree["Solver"] = {"Initial Time": 0.0, "Final Time": 1.0e-5, "Verlet": {"Safety Factor": 0.5}}
+    tree["Output"] = {"Output Filename": "nan", "Output Frequency": 1, "Output Variables": {"Displacement": True}}
+    (tmp_path / "deck.yaml").write_text(dump_yaml(tree))
+    proc = mpirun(2, ["run", "deck.yaml", "-q"], tmp_path, timeout=300)
+    assert proc.returncode == 3, proc.stderr[-3000:]
+    assert "Boundary Conditions > Pull: the value '(t - t)/(t - t)' is nan" in proc.stderr
+    for name in ("nan.e", "nan.partial.e"):
+        if (tmp_path / name).exists():
+            with netCDF4.Dataset(tmp_path / name) as ds:
+                assert all(np.isfinite(np.asarray(v[:])).all() for k, v in ds.variables.items() if k.startswith("vals_"))
+
+
 @pytest.mark.parametrize("ranks,message_bytes", [(2, None), (3, "100"), (2, "0")])
 def test_overlapped_halo_gives_the_serial_results_bit_for_bit(tmp_path, ranks, message_bytes):
     """A fused LPS block with critical-stretch damage and an impact that breaks bonds: under MPI
