@@ -7,7 +7,7 @@ although obviously invalid, or wrote an unreadable file), ``exit2_messy`` (refus
 one-line-per-problem form), then the clean ones: ``exit3``, ``exit0``, ``exit2_clean``; ``skipped``
 if the mutated tree cannot be written.
 
-``check`` runs in-process (``peridyn.cli.main``) in a warm worker process forked from this one, so
+``check`` runs in-process (``peridyn.cli.main``) in a warm worker process started once, so
 it costs no interpreter or numba start-up; ``run`` runs in a subprocess. Both get a memory limit,
 a file-size limit and a wall-time limit.
 """
@@ -118,7 +118,7 @@ def _serve(conn) -> None:
 
 
 class CheckWorker:
-    """A warm process (forked before any numba thread exists) that runs ``check`` in-process.
+    """A warm process (started fresh, never forked from a process with OpenMP threads) that runs ``check`` in-process.
 
     One request at a time; the process is replaced after a timeout or any exit code other
     than 0, 2 or 3, so a broken state never leaks into the next case.
@@ -131,7 +131,7 @@ class CheckWorker:
     def _start(self) -> None:
         import multiprocessing
 
-        ctx = multiprocessing.get_context("fork")
+        ctx = multiprocessing.get_context("spawn")  # not fork: this process may already run OpenMP threads
         self._conn, child = ctx.Pipe()
         self._proc = ctx.Process(target=_serve, args=(child,), daemon=True)
         self._proc.start()
