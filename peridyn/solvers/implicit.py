@@ -49,7 +49,7 @@ class ImplicitParams(ModelParams):
     beta: float = Field(0.25, alias="Beta", gt=0, le=0.5, description="Newmark beta (1/4: trapezoidal rule)")
     gamma: float = Field(0.5, alias="Gamma", ge=0, le=1, description="Newmark gamma (1/2: no numerical damping)")
     absolute_tolerance: float = Field(1.0e-6, alias="Absolute Tolerance", gt=0, description="tolerance on ||beta dt^2 (rho a - f - b)|| (force density x time^2)")
-    maximum_solver_iterations: int = Field(10, alias="Maximum Solver Iterations", ge=0, description="Newton iterations per step (Peridigm runs up to this + 1)")
+    maximum_solver_iterations: int = Field(10, alias="Maximum Solver Iterations", ge=0, le=1_000_000, description="Newton iterations per step (Peridigm runs up to this + 1)")
     linear_solver: Literal[METHODS] = Field(  # type: ignore[valid-type]
         "Belos", alias="Linear Solver", description="peridyn: Belos (Peridigm's CG to 1e-10, default), Direct, AMG, Auto"
     )

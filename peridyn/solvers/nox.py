@@ -65,6 +65,12 @@ class NOXConvergenceError(PeridynError):
 # ------------------------------------------------------------------------------------------------
 # parameters: the NOX option trees are accepted; the keys that change what runs are validated
 # ------------------------------------------------------------------------------------------------
+#: bounds on work multipliers, far above any useful value: a larger count is a typo that would run
+#: for ever (iterations, sweeps) or allocate without bound (Krylov vectors of every unknown)
+MAX_ITERATIONS = 1_000_000
+MAX_SWEEPS = 1_000
+MAX_KRYLOV_SPACE = 10_000
+
 #: NOX, AztecOO and Ifpack options Peridigm decks carry that peridyn accepts without using them
 #: (a key close to one of these, or to a key peridyn uses, is taken for a typo)
 NOX_OTHER_KEYS = frozenset({
@@ -106,17 +112,17 @@ class NOXLinearSolverParams(_OptionTree):
     )
     preconditioner: Literal["None", "AztecOO", "User Defined", "Ifpack", "New Ifpack", "ML"] = Field("None", alias="Preconditioner")
     aztec_solver: Literal["GMRES"] = Field("GMRES", alias="Aztec Solver", description="Krylov method (GMRES only)")
-    max_iterations: int = Field(400, alias="Max Iterations", ge=1)
+    max_iterations: int = Field(400, alias="Max Iterations", ge=1, le=MAX_ITERATIONS)
     tolerance: float = Field(1.0e-10, alias="Tolerance", gt=0, lt=1)
-    kspace: int = Field(300, alias="Size of Krylov Subspace", ge=1)
+    kspace: int = Field(300, alias="Size of Krylov Subspace", ge=1, le=MAX_KRYLOV_SPACE)
     orthogonalization: Literal["Classical", "Modified"] = Field("Classical", alias="Orthogonalization")
     convergence_test: Literal["r0"] = Field("r0", alias="Convergence Test")
     zero_initial_guess: bool = Field(False, alias="Zero Initial Guess")
     aztec_preconditioner: Literal["ilu", "ilut", "Jacobi", "Symmetric Gauss-Seidel", "Polynomial", "Least-squares Polynomial"] = Field(
         "ilu", alias="Aztec Preconditioner"
     )
-    steps: int = Field(3, alias="Steps", ge=1, description="Jacobi sweeps of the Aztec preconditioner")
-    preconditioner_iterations: int = Field(1, alias="AztecOO Preconditioner Iterations", ge=1)
+    steps: int = Field(3, alias="Steps", ge=1, le=MAX_SWEEPS, description="Jacobi sweeps of the Aztec preconditioner")
+    preconditioner_iterations: int = Field(1, alias="AztecOO Preconditioner Iterations", ge=1, le=MAX_SWEEPS)
 
 
 class NOXNewtonParams(_OptionTree):
@@ -146,7 +152,7 @@ class NOXDirectionParams(_OptionTree):
 
 class NOXPolynomialParams(_OptionTree):
     default_step: float = Field(1.0, alias="Default Step", gt=0)
-    max_iters: int = Field(100, alias="Max Iters", ge=1)
+    max_iters: int = Field(100, alias="Max Iters", ge=1, le=MAX_ITERATIONS)
     minimum_step: float = Field(1.0e-12, alias="Minimum Step", gt=0)
     recovery_step: float | None = Field(None, alias="Recovery Step", gt=0)
     interpolation_type: Literal["Cubic", "Quadratic", "Quadratic3"] = Field("Cubic", alias="Interpolation Type")
@@ -164,7 +170,7 @@ class NOXLineSearchParams(_OptionTree):
 
 class NOXQuasiStaticParams(LoadStepKeys):
     nonlinear_solver: Literal["Line Search Based"] = Field("Line Search Based", alias="Nonlinear Solver", description="NOX solver (Line Search Based)")
-    max_solver_iterations: int = Field(50, alias="Max Solver Iterations", ge=1, description="NOX steps per load step before the run fails")
+    max_solver_iterations: int = Field(50, alias="Max Solver Iterations", ge=1, le=MAX_ITERATIONS, description="NOX steps per load step before the run fails")
     max_age_of_prec: int = Field(200, alias="Max Age Of Prec", ge=1, description="matrix-free mode: uses of the block preconditioner before it is rebuilt")
     preconditioner_reuse_policy: Literal["Reuse", "Rebuild", "Recompute"] | None = Field(None, alias="Preconditioner Reuse Policy")
     verbose: bool = Field(False, alias="Verbose", description="accepted; use --verbose")

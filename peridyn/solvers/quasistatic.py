@@ -70,8 +70,8 @@ class SwitchToVerletParams(ModelParams):
 
 
 class AdaptiveLoadSteppingParams(ModelParams):
-    max_reductions_in_step: int = Field(alias="Maximum load step reductions in one step", ge=0, description="halvings allowed for one load step")
-    max_total_reductions: int = Field(alias="Maximum total load step reductions", ge=0, description="halvings allowed in the whole solver")
+    max_reductions_in_step: int = Field(alias="Maximum load step reductions in one step", ge=0, le=1_000, description="halvings allowed for one load step")
+    max_total_reductions: int = Field(alias="Maximum total load step reductions", ge=0, le=1_000_000, description="halvings allowed in the whole solver")
     reduce_all_remaining: bool = Field(False, alias="Reduce all remaining load steps", description="after a halving, use the smaller step to the end")
     adaptive_output_frequency: bool = Field(False, alias="Adaptive output frequency", description="double every output frequency at each halving")
     switch_to_verlet: SwitchToVerletParams | None = Field(None, alias="Switch to Verlet", description="continue with Verlet when the reductions run out")
@@ -95,11 +95,11 @@ class LoadStepKeys(ModelParams):
 
 
 class QuasiStaticParams(LoadStepKeys):
-    maximum_solver_iterations: int = Field(10, alias="Maximum Solver Iterations", ge=0, description="Newton iterations per load step")
+    maximum_solver_iterations: int = Field(10, alias="Maximum Solver Iterations", ge=0, le=1_000_000, description="Newton iterations per load step")
     damped_newton_scale: float = Field(1.0001, alias="Damped Newton Diagonal Scale Factor", gt=0, description="damped Newton: the diagonal is multiplied by this")
     damped_newton_shift: float = Field(1.0e-5, alias="Damped Newton Diagonal Shift Factor", ge=0, description="damped Newton: plus this times the largest diagonal entry")
     belos_linear_solver: Literal["BlockCG", "BlockGMRES"] = Field("BlockCG", alias="Belos Linear Solver", description="Peridigm's Krylov method")
-    belos_maximum_iterations: int | None = Field(None, alias="Belos Maximum Iterations", ge=1, description="Krylov iterations per solve (default: number of unknowns)")
+    belos_maximum_iterations: int | None = Field(None, alias="Belos Maximum Iterations", ge=1, le=100_000_000, description="Krylov iterations per solve (default: number of unknowns)")
     belos_relative_tolerance: float = Field(1.0e-4, alias="Belos Relative Tolerance", gt=0, lt=1, description="Krylov stopping tolerance, relative to the right-hand side")
     belos_print_status: bool = Field(False, alias="Belos Print Status", description="accepted; use --verbose")
     adaptive: AdaptiveLoadSteppingParams | None = Field(None, alias="Adaptive Load-Stepping", description="halve load steps that do not converge")
