@@ -42,23 +42,18 @@ def _numeric_only(annotation: Any) -> bool:
 def _bool_for_number(annotation: Any, value: Any) -> bool:
     """A boolean where the annotation wants a number (also inside a list of numbers)."""
     if isinstance(value, bool):
-        return _numeric_only(annotation) or any(
-            typing.get_origin(a) in (list, tuple) and _element_numeric(a) for a in _alternatives(annotation)
-        )
-    if isinstance(value, (list, tuple)) and any(isinstance(v, bool) for v in value):
-        return any(typing.get_origin(a) in (list, tuple) and _element_numeric(a) for a in _alternatives(annotation))
+        return _numeric_only(annotation) or _numeric_list(annotation)
+    return isinstance(value, (list, tuple)) and any(isinstance(v, bool) for v in value) and _numeric_list(annotation)
+
+
+def _numeric_list(annotation: Any) -> bool:
+    """Whether the annotation (or one of its alternatives) is a list or tuple of numbers."""
+    union = typing.get_origin(annotation) in (typing.Union, types.UnionType)
+    for alt in typing.get_args(annotation) if union else (annotation,):
+        args = [a for a in typing.get_args(alt) if a is not Ellipsis]
+        if typing.get_origin(alt) in (list, tuple) and args and all(_numeric_only(a) for a in args):
+            return True
     return False
-
-
-def _alternatives(annotation: Any) -> tuple[Any, ...]:
-    if typing.get_origin(annotation) in (typing.Union, types.UnionType):
-        return typing.get_args(annotation)
-    return (annotation,)
-
-
-def _element_numeric(annotation: Any) -> bool:
-    args = [a for a in typing.get_args(annotation) if a is not Ellipsis]
-    return bool(args) and all(_numeric_only(a) for a in args)
 
 
 def _non_finite(value: Any) -> bool:

@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Expression", "ExpressionError", "compile_expression", "set_random_seed"]
+__all__ = ["Expression", "ExpressionError", "compile_expression", "constant_not_finite", "set_random_seed"]
 
 _NAN = math.nan
 _PI = 3.141592653589793
@@ -1177,6 +1177,15 @@ class Expression:
 
 
 _IDENT_RE = re.compile(r"[A-Za-z_][A-Za-z_0-9]*\Z")
+
+
+def constant_not_finite(expr: Expression) -> str | None:
+    """For a constant expression whose value is NaN or inf, what is wrong with it; else None."""
+    if expr.is_constant:
+        value = float(expr())
+        if not math.isfinite(value):
+            return f"the expression {expr.text!r} evaluates to {value!r}"
+    return None
 
 
 def compile_expression(text: str, variables: Sequence[str]) -> Expression:

@@ -13,7 +13,6 @@ node-set names are matched after "tidying" (upper case, spaces as ``_``); an ent
 from __future__ import annotations
 
 import logging
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -416,16 +415,15 @@ def _choices(name: str, options) -> str:
 
 
 def _check_expression(text: str, variables, path, file, errors) -> None:
-    from .expressions import ExpressionError, compile_expression
+    from .expressions import ExpressionError, compile_expression, constant_not_finite
 
     try:
-        expr = compile_expression(text, variables)
+        problem = constant_not_finite(compile_expression(text, variables))
     except ExpressionError as exc:
         errors.append(InputError(str(exc), file=file, path=path))
         return
-    if expr.is_constant and not math.isfinite(float(expr())):
-        errors.append(InputError(f"the expression {text!r} evaluates to {float(expr())!r}", file=file, path=path,
-                                 fix="give an expression with a finite value"))
+    if problem:
+        errors.append(InputError(problem, file=file, path=path, fix="give an expression with a finite value"))
 
 
 def _parse_models(sec, section_name, kind, key, registry, file, errors, lines) -> dict[str, ModelEntry]:

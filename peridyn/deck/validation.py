@@ -99,9 +99,6 @@ def convert_errors(exc: ValidationError, model: type[BaseModel], *, path: Sequen
                 field = next((f for n, f in parent.model_fields.items() if f.alias == loc[-1]), None)
             desc = f" ({field.description})" if field is not None and field.description else ""
             out.append(InputError(f"missing required key {loc[-1]!r}{desc}", file=file, path=full[:-1], line=line))
-        elif kind in ("value_error", "assertion_error") and not loc:
-            msg = str(err["msg"]).removeprefix("Value error, ").removeprefix("Assertion failed, ")
-            out.append(InputError(msg, file=file, path=full, line=line))
         elif kind in ("value_error", "assertion_error"):
             msg = str(err["msg"]).removeprefix("Value error, ").removeprefix("Assertion failed, ")
             out.append(InputError(msg, file=file, path=full, line=line))

@@ -12,7 +12,6 @@ Expressions are evaluated at the points' *reference* coordinates.
 """
 from __future__ import annotations
 
-import math
 from typing import Any, ClassVar
 
 import numpy as np
@@ -81,16 +80,16 @@ class BoundaryCondition:
     @classmethod
     def check(cls, params: BCParams) -> list[str]:
         """Problems beyond the schema (one message each)."""
-        from ..deck.expressions import ExpressionError, compile_expression
+        from ..deck.expressions import ExpressionError, compile_expression, constant_not_finite
 
         problems = []
         try:
-            expr = compile_expression(params.text, ("x", "y", "z", "t"))
+            problem = constant_not_finite(compile_expression(params.text, ("x", "y", "z", "t")))
         except ExpressionError as exc:
             problems.append(f"Value: {exc}")
         else:
-            if expr.is_constant and not math.isfinite(float(expr())):
-                problems.append(f"Value: {params.text!r} evaluates to {float(expr())!r}; give a finite value")
+            if problem:
+                problems.append(f"Value: {problem}; give a finite value")
         if cls.scalar and params.coordinate != "x":
             problems.append(f"{cls.name} acts on a scalar field; omit Coordinate or use 'x'")
         return problems

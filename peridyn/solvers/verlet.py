@@ -70,7 +70,10 @@ class Verlet(Solver):
         return dt, dt_crit
 
     def planned_steps(self, sim) -> int:
-        dt, _ = self.time_step(sim, warn=False)
+        return self._steps(sim, self.time_step(sim, warn=False)[0])
+
+    def _steps(self, sim, dt: float) -> int:
+        """floor((t_final - t_initial) / dt); an input error when that cannot be counted."""
         steps = (self.params.final_time - self.params.initial_time) / dt
         if not math.isfinite(steps):
             raise InputError(
@@ -83,7 +86,7 @@ class Verlet(Solver):
         s = self.params
         dt, dt_crit = self.time_step(sim)
         t0 = s.initial_time
-        nsteps = self.planned_steps(sim)
+        nsteps = self._steps(sim, dt)
         dt2 = dt / 2.0
         n = sim.num_local
         f = sim.fields
