@@ -174,10 +174,28 @@ def _log_summary(sim, wall: float) -> None:
                 100 * abs(e["balance_error"]) / scale,
                 100 * e["max_relative_error"],
             )
+        c = st.get("contact")
+        if c:
+            _log_contact(c, steps)
     if sim.comm.size > 1:
         _log_parallel(sim)
     files = [str(w.path.name) for w in sim.outputs.writers if w.frames]
     log.info("done in %.2f s; wrote %s", wall, ", ".join(files) if files else "no output")
+
+
+def _log_contact(c: dict, steps: int) -> None:
+    builds = max(1, int(c["builds"]))
+    pen = c["penetration"]
+    log.info(
+        "  contact: %d searches, %d pair-list builds (%.3g ms each), contact force %.3g ms per step, %d pairs listed at the end (largest %d)%s",
+        c["searches"], c["builds"], 1e3 * c["build_time"] / builds, 1e3 * (c["force_time"] - c["build_time"]) / max(1, c["force_calls"]),
+        c["pairs"], c["max_pairs"], f", {c['ghosts']} contact ghosts at most" if c.get("ghosts") else "",
+    )
+    if pen < 1.0:
+        log.info("  contact: smallest pair distance %.4g = %.3g of the contact radius %.4g (penetration %.1f%%)",
+                 c["min_distance"], pen, c["contact_radius"], 100.0 * max(0.0, 1.0 - pen))
+    else:
+        log.info("  contact: no pair came within the contact radius %.4g", c["contact_radius"])
 
 
 def _log_parallel(sim) -> None:

@@ -40,6 +40,24 @@ class Force(Compute):
         sim.fields["Force"][:] = sim.fields["Volume"][:, None] * sim.fields["Force_Density"]
 
 
+class ContactForce(Compute):
+    """V_i times Contact_Force_Density: the contact force on each point (M L/T^2); zero in a run
+    without contact."""
+
+    name = "Contact_Force"
+
+    def outputs(self, sim):
+        return [FieldSpec("Contact_Force", Relation.NODE, 3)]
+
+    def compute(self, sim):
+        fc = sim.fields.get("Contact_Force_Density")
+        out = sim.fields["Contact_Force"]
+        if fc is None:
+            out[:] = 0.0
+        else:
+            out[:] = sim.fields["Volume"][:, None] * fc
+
+
 def _kinetic(sim, start, stop, rho):
     v = sim.fields["Velocity"][start:stop]
     vol = sim.fields["Volume"][start:stop]

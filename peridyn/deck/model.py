@@ -91,9 +91,25 @@ class DataLoaderParams(ModelParams):
     field_name: str = Field(alias="Field Name", description="nodal variable to load")
 
 
-class ContactModelParams(ModelParams):
-    model_config = ModelParams.model_config | {"extra": "allow"}
-    contact_model: str = Field(alias="Contact Model")
+class ContactSectionParams(ModelParams):
+    """The ``Contact`` section's own keys (its ``Models`` are validated by each model)."""
+
+    search_radius: float = Field(alias="Search Radius", gt=0, description="R_s: pairs closer than this at a search are listed (L)")
+    search_frequency: int = Field(alias="Search Frequency", ge=1, description="search every this many Verlet steps")
+    verbose: bool = Field(False, alias="Verbose", description="accepted; no effect")
+    models: dict[str, Any] = Field(alias="Models", description="contact models; the first one acts between all points")
+    interactions: dict[str, Any] | None = Field(
+        None, alias="Interactions", description="block pairs; Peridigm parses them but contact acts between all blocks"
+    )
+
+
+@dataclass
+class ContactEntry:
+    """The validated ``Contact`` section: the settings and the one model that acts."""
+
+    params: ContactSectionParams
+    model: "ModelEntry"
+    path: tuple[str, ...] = ("Contact",)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -184,7 +200,7 @@ class Deck:
     outputs: list[OutputEntry]
     computes: list[ModelEntry]  #: Compute Class Parameters entries, deck order
     data_loader: DataLoaderParams | None
-    contact: dict[str, Any] | None
+    contact: ContactEntry | None
     registry: Registry = field(repr=False, default=None)
 
     def line(self, path) -> int | None:
@@ -506,23 +522,49 @@ def _parse_discretization(raw, registry, file, errors, lines) -> DiscretizationE
     return DiscretizationEntry(dtype, cls, params, influence, filters, omit, path)
 
 
-def _parse_contact(raw, registry, file, errors, lines) -> dict[str, Any]:
+def _parse_contact(raw, registry, file, errors, lines) -> ContactEntry | None:
+    """PERIDIGM_CONTACT.md §1: only the first model acts, for every block; ``Interactions`` are
+    read but restrict nothing (both accepted with one warning, as Peridigm runs them)."""
     path = ("Contact",)
-    models = raw.get("Models", {})
-    out: dict[str, Any] = {"raw": dict(raw), "models": {}}
-    if isinstance(models, Mapping):
-        for name, mraw in models.items():
-            mpath = path + ("Models", name)
-            if not isinstance(mraw, Mapping) or "Contact Model" not in mraw:
-                errors.append(InputError("missing required key 'Contact Model'", file=file, path=mpath))
-                continue
-            model = mraw["Contact Model"]
-            if not registry.has("contact", model):
-                errors.append(registry.unknown("contact", model, path=mpath + ("Contact Model",), file=file))
-                continue
-            cls = registry.get("contact", model, path=mpath, file=file)
-            body = {k: v for k, v in mraw.items() if k != "Contact Model"}
-            params = validate_params(cls.Params, body, path=mpath, file=file, errors=errors, lines=lines)
-            if params is not None:
-                out["models"][name] = ModelEntry(name, model, cls, params, mpath)
-    return out
+    p = validate_params(ContactSectionParams, raw, path=path, file=file, errors=errors, lines=lines)
+    if p is None:
+        return None
+    if not p.models:
+        errors.append(InputError("'Models' lists no contact model", file=file, path=path + ("Models",), fix="add a model, e.g. 'Contact Model: Short Range Force'"))
+        return None
+    if p.interactions is not None:
+        pairs = [k for k, v in p.interactions.items() if isinstance(v, Mapping)]
+        if not pairs:
+            errors.append(
+                InputError(
+                    "'Interactions' lists no interaction (Peridigm hangs on this)",
+                    file=file,
+                    path=path + ("Interactions",),
+                    fix="add an interaction such as 'General Contact: {Contact Model: ...}', or remove 'Interactions'",
+                )
+            )
+            return None
+        log.warning(
+            "%s: Contact > Interactions is ignored: as in Peridigm, contact acts between all points of all blocks (%s)",
+            file, ", ".join(repr(k) for k in pairs[:3]) + (", ..." if len(pairs) > 3 else ""),
+        )
+    names = list(p.models)
+    if len(names) > 1:
+        log.warning("%s: Contact > Models: only the first model, %r, is used (as in Peridigm); %s ignored",
+                    file, names[0], ", ".join(repr(n) for n in names[1:]))
+    name = names[0]
+    mraw = p.models[name]
+    mpath = path + ("Models", name)
+    if not isinstance(mraw, Mapping) or "Contact Model" not in mraw:
+        errors.append(InputError("missing required key 'Contact Model'", file=file, path=mpath, fix="give 'Contact Model: Short Range Force'"))
+        return None
+    model = mraw["Contact Model"]
+    if not isinstance(model, str) or not registry.has("contact", model):
+        errors.append(registry.unknown("contact", model, path=mpath + ("Contact Model",), file=file))
+        return None
+    cls = registry.get("contact", model, path=mpath, file=file)
+    body = {k: v for k, v in mraw.items() if k != "Contact Model"}
+    params = validate_params(cls.Params, body, path=mpath, file=file, errors=errors, lines=lines)
+    if params is None:
+        return None
+    return ContactEntry(p, ModelEntry(name, model, cls, params, mpath), path)

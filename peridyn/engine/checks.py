@@ -50,6 +50,9 @@ def connected(sim: Any) -> None:
     if sim.num_bonds_global == 0 and sim.num_global > 1:
         spacing = float(np.cbrt(np.median(sim.discretization.volume)))
         horizons = ", ".join(f"{blk.name}: {blk.horizon_text}" for blk in sim.blocks)
+        if sim.deck.contact is not None:  # points that interact by contact only
+            log.warning("no point has a neighbor (horizons %s, point spacing about %.3g): only contact acts", horizons, spacing)
+            return
         raise InputError(
             f"no point has a neighbor: the horizons ({horizons}) are below the point spacing (about {spacing:.3g})",
             file=sim.deck.file, path=("Blocks",), fix="give horizons of about three point spacings",

@@ -31,6 +31,7 @@ STANDARD_FIELDS = {
     "Displacement": FieldSpec("Displacement", Relation.NODE, 3),
     "Velocity": FieldSpec("Velocity", Relation.NODE, 3),
     "Force_Density": FieldSpec("Force_Density", Relation.NODE, 3),
+    "Contact_Force_Density": FieldSpec("Contact_Force_Density", Relation.NODE, 3),
     "External_Force_Density": FieldSpec("External_Force_Density", Relation.NODE, 3),
     "Temperature": FieldSpec("Temperature", Relation.NODE),
     "Temperature_Change": FieldSpec("Temperature_Change", Relation.NODE),

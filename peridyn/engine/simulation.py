@@ -102,6 +102,11 @@ class Simulation:
         self.outputs = OutputManager(self)
         self._declare_fields_late()
         self._fill_fields(disc)
+        self.contact = None
+        if deck.contact is not None:  # contact code is imported only by decks that use it
+            from ..contact.manager import ContactManager
+
+            self.contact = ContactManager(self, deck.contact)
         self._make_views()
         plan_fusion(self)
         self.num_bonds_global = int(self.comm.allreduce_sum(int(self.bonds.num_bonds)))
@@ -367,7 +372,8 @@ class Simulation:
                 fields=self.fields,
                 bonds=self.bonds,
                 num_owned=self.num_owned,
-                damage_symmetric=bool(blk.damage is not None and blk.damage.symmetric),
+                # no damage model: the block's bonds stay intact at both ends
+                damage_symmetric=bool(blk.damage is None or blk.damage.symmetric),
                 influence=self.influence,
             )
 
@@ -541,6 +547,12 @@ class Simulation:
 
     def critical_time_step(self) -> float:
         """Peridigm's critical time step estimate min_i sqrt(2 rho / sum_j V_j c / |xi_ij|)."""
+        dt = self.critical_time_steps()
+        local = float(dt.min()) if self.num_owned else math.inf
+        return self.comm.allreduce_min(local)
+
+    def critical_time_steps(self) -> np.ndarray:
+        """(num_owned,) each point's sqrt(2 rho / sum_j V_j c / |xi_ij|) (inf without bonds)."""
         nl = self.bonds
         s = self.fields
         dt = np.full(self.num_local, np.inf)
@@ -557,8 +569,7 @@ class Simulation:
                 with np.errstate(all="ignore"):
                     c_point = (18.0 * K) / ((((math.pi * h) * h) * h) * h)
             critical_time_step_kernel(blk.start, blk.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Volume"], blk.density, c, c_point, dt)
-        local = float(dt[: self.num_owned].min()) if self.num_owned else math.inf
-        return self.comm.allreduce_min(local)
+        return dt[: self.num_owned]
 
     # -- energies (owned points; reduced over ranks) --------------------------------------------
     def kinetic_energy(self) -> float:
@@ -571,7 +582,11 @@ class Simulation:
         W = np.zeros(self.num_local)
         for blk in self.blocks:
             blk.material.stored_energy_density(blk.view, W)
-        return self.comm.allreduce_sum(float(np.dot(W[: self.num_owned], self.fields["Volume"][: self.num_owned])))
+        total = self.comm.allreduce_sum(float(np.dot(W[: self.num_owned], self.fields["Volume"][: self.num_owned])))
+        if self.contact is not None:
+            e = self.contact.potential_energy()
+            total = total + e if e is not None else math.nan
+        return total
 
     def memory_bytes(self) -> int:
         total = self.fields.nbytes() + self.bonds.nbytes()

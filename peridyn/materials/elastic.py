@@ -285,7 +285,7 @@ def fused_force_kernel(start, stop, offsets, neighbors, reverse, zeta, y, volume
                 e_i = e - shift_i * z if thermal else e
                 e_j = e - (alpha_T * dT[j]) * z if thermal else e
                 k_i = 1.0 - bond_damage[b] if has_damage else 1.0
-                k_j = (1.0 - bond_damage[reverse[b]] if reverse.shape[0] > 0 else k_i) if has_damage else 1.0
+                k_j = (1.0 - bond_damage[reverse[b]] if reverse.shape[0] > 0 and reverse[b] >= 0 else k_i) if has_damage else 1.0
                 t = w * (k_i * (ci * z + k_i * ai * e_i) + k_j * (c[j] * z + k_j * a[j] * e_j))
             else:
                 t = w * ((ci + c[j]) * z + (ai + a[j]) * e)

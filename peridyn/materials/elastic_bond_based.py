@@ -95,7 +95,7 @@ def fused_force_kernel(start, stop, offsets, neighbors, reverse, zeta, y, volume
             L = math.sqrt(ex * ex + ey * ey + ez * ez)
             half = (0.5 * ((L - L0) / L0)) * c
             if has_damage:
-                d_rev = bond_damage[reverse[b]] if reverse.shape[0] > 0 else bond_damage[b]
+                d_rev = bond_damage[reverse[b]] if reverse.shape[0] > 0 and reverse[b] >= 0 else bond_damage[b]
                 t = (1.0 - bond_damage[b]) * half + (1.0 - d_rev) * half
             else:
                 t = half + half

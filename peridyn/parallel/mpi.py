@@ -50,8 +50,8 @@ class _Plan:
         )
         self.send = np.empty((int(np.sum(counts_s)), width), dtype=np.float64)
         self.recv = np.empty((int(np.sum(counts_r)), width), dtype=np.float64)
-        self.requests = [h.comm.Recv_init([self.recv[lo : lo + n], MPI.DOUBLE], source=r, tag=_HALO_TAG) for r, lo, n in h._pieces(counts_r, displs_r, width)]
-        self.requests += [h.comm.Send_init([self.send[lo : lo + n], MPI.DOUBLE], dest=r, tag=_HALO_TAG) for r, lo, n in h._pieces(counts_s, displs_s, width)]
+        self.requests = [h.comm.Recv_init([self.recv[lo : lo + n], MPI.DOUBLE], source=r, tag=h.tag) for r, lo, n in h._pieces(counts_r, displs_r, width)]
+        self.requests += [h.comm.Send_init([self.send[lo : lo + n], MPI.DOUBLE], dest=r, tag=h.tag) for r, lo, n in h._pieces(counts_s, displs_s, width)]
         self.busy = False
 
 
@@ -73,8 +73,9 @@ class Halo:
     computation that ``begin``/``end`` overlap with them.
     """
 
-    def __init__(self, comm, send_index, send_counts, recv_index, recv_counts) -> None:
+    def __init__(self, comm, send_index, send_counts, recv_index, recv_counts, *, tag: int = _HALO_TAG) -> None:
         self.comm = comm
+        self.tag = tag  #: a plan with its own tag never matches another plan's messages
         self.send_index = send_index
         self.send_counts = np.asarray(send_counts, dtype=np.int64)
         self.recv_index = recv_index
@@ -143,6 +144,14 @@ class Halo:
     def exchange(self, array: np.ndarray) -> None:
         """Copy owners' values into the ghost rows of ``array`` (shape (n_local,) or (n_local, k))."""
         self.end(self.begin(array))
+
+    def free(self) -> None:
+        """Release the persistent requests (a plan that is replaced, e.g. contact ghosts)."""
+        for plans in self._plans.values():
+            for plan in plans:
+                for r in plan.requests:
+                    r.Free()
+        self._plans.clear()
 
     def reverse_sum(self, array: np.ndarray) -> None:
         """Add the ghost rows of ``array`` into their owners' rows (and leave the ghosts as they

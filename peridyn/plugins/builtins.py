@@ -12,6 +12,7 @@ _R = "peridyn.computes.reductions"
 BUILTIN_COMPUTES: tuple[tuple[str, str], ...] = (
     ("Acceleration", f"{_K}:Acceleration"),
     ("Force", f"{_K}:Force"),
+    ("Contact_Force", f"{_K}:ContactForce"),
     ("Kinetic_Energy", f"{_K}:KineticEnergy"),
     ("Global_Kinetic_Energy", f"{_K}:GlobalKineticEnergy"),
     ("Linear_Momentum", f"{_K}:LinearMomentum"),
@@ -42,6 +43,7 @@ def peridyn_discretizations():
         ("PdQuickGrid", "peridyn.io.quickgrid:PdQuickGrid"),
         ("Exodus", "peridyn.io.exodus_mesh:ExodusMesh"),
         ("Text File", "peridyn.io.textfile:TextFile"),
+        ("Shapes", "peridyn.io.shapes:Shapes"),
     ]
 
 
@@ -64,7 +66,10 @@ def peridyn_damage_models():
 
 @hookimpl
 def peridyn_contact_models():
-    return []
+    return [
+        ("Short Range Force", "peridyn.contact.short_range:ShortRangeForce"),
+        ("Time Dependent Short Range Force", "peridyn.contact.short_range:TimeDependentShortRangeForce"),
+    ]
 
 
 @hookimpl

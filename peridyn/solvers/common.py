@@ -136,6 +136,8 @@ class EnergyMonitor:
         #: stored energy at the start, when every material reports one (else None: no test of
         #: created energy, since a body may start stretched)
         self.stored0 = sim.stored_energy() if self.accounting and self._energy_known(sim) else None
+        if self.stored0 is not None and not math.isfinite(self.stored0):  # a contact model without an energy
+            self.stored0 = None
         if self.stored0 is not None:
             self.max_scale = max(self.max_scale, abs(self.stored0))
 
@@ -252,13 +254,19 @@ class EnergyMonitor:
         return where
 
     def _advice(self) -> str:
+        contact = getattr(self.sim, "contact", None)
+        note = contact.diagnosis(self.dt) if contact is not None else ""
+        if note.startswith("contact springs"):  # the contact springs are what the step cannot resolve
+            return note
         ratio = self.dt / self.dt_estimate if self.dt_estimate > 0 else float("inf")
         if not ratio < 1e3:  # a broken estimate (a density of 1e-297, say): no thousand-digit number
-            return f"the time step {self.dt:.4g} is far above the stable estimate {self.dt_estimate:.4g}; check the density and moduli"
-        return (
-            f"the time step {self.dt:.4g} is {ratio:.2f} times the stable estimate {self.dt_estimate:.4g}; "
-            f"use 'Safety Factor' <= 1 or a 'Fixed dt' below {self.dt_estimate:.4g}"
-        )
+            advice = f"the time step {self.dt:.4g} is far above the stable estimate {self.dt_estimate:.4g}; check the density and moduli"
+        else:
+            advice = (
+                f"the time step {self.dt:.4g} is {ratio:.2f} times the stable estimate {self.dt_estimate:.4g}; "
+                f"use 'Safety Factor' <= 1 or a 'Fixed dt' below {self.dt_estimate:.4g}"
+            )
+        return f"{advice}; {note}" if note else advice
 
     def _fail_nonfinite(self, step: int, time: float) -> None:
         where = self._worst_point()

@@ -67,6 +67,16 @@ class Verlet(Solver):
         elif p.fixed_dt is not None and dt > dt_crit:
             log.warning("%s: the time step %.4g exceeds the critical time step estimate %.4g (ratio %.3g)", self.section, dt, dt_crit,
                         dt / dt_crit if dt_crit > 0 else math.inf)
+        contact = getattr(sim, "contact", None)
+        if contact is not None:
+            dt_c = contact.stable_time_step()
+            if dt > dt_c:
+                log.warning(
+                    "%s: the contact springs (Spring Constant %.4g times the smallest bulk modulus) lower the stable time step "
+                    "estimate to %.4g, below the time step %.4g (Peridigm's estimate ignores contact); use %s",
+                    self.section, contact.stiffness_ratio(), dt_c, dt,
+                    f"'Safety Factor' <= {dt_c / dt_crit:.3g}" if p.fixed_dt is None and math.isfinite(dt_crit) else f"'Fixed dt' <= {dt_c:.4g}",
+                )
         return dt, dt_crit
 
     def planned_steps(self, sim) -> int:
@@ -99,10 +109,14 @@ class Verlet(Solver):
             a = sim.acceleration = np.zeros((n, 3))
         log.info("%s: Verlet, dt = %.6g (critical estimate %.6g), %d steps from t = %.6g to %.6g", self.section, dt, dt_crit, nsteps, t0, t0 + nsteps * dt)
 
+        contact = getattr(sim, "contact", None)
+
         # step 0
         sim.time_prev = sim.time = t = t0
         sim.load_data(t)
         sim.evaluate_forces()
+        if contact is not None:
+            contact.add_force(f["Force_Density"], t, 0)
         sim.apply_kinematic(t, t)
         sim.apply_body_forces(t)
         acceleration_kick_kernel(n, f["Force_Density"], f["External_Force_Density"] if has_b else no_b, rho, dt2, a, v, False)
@@ -122,6 +136,8 @@ class Verlet(Solver):
             t = t0 + float(step) * dt
             sim.time_prev, sim.time = t_prev, t
             sim.begin_step(t)
+            if contact is not None:
+                contact.begin_step(step)
             kick_kernel(n, v, a, dt2)
             sim.apply_kinematic(t, t_prev)
             np.copyto(f_old, f["Force_Density"])
@@ -132,6 +148,8 @@ class Verlet(Solver):
             sim.load_data(t)
             tf0 = _time.perf_counter()
             sim.evaluate_forces()
+            if contact is not None:
+                contact.add_force(f["Force_Density"], t, step)
             force_time += _time.perf_counter() - tf0
             acceleration_kick_kernel(n, f["Force_Density"], f["External_Force_Density"] if has_b else no_b, rho, dt2, a, v, True)
             monitor.force_work(du, f_old, f["Force_Density"], b_old, f["External_Force_Density"] if has_b else None)
@@ -160,6 +178,7 @@ class Verlet(Solver):
                 "force_time": force_time,
                 "bond_evaluations": nsteps * sim.num_bonds_global,
                 "point_steps": nsteps * sim.num_global,
+                "contact": contact.summary() if contact is not None else None,
                 "energy": {
                     "kinetic_initial": monitor.kinetic0,
                     "kinetic": monitor.kinetic,

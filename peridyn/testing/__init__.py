@@ -15,7 +15,8 @@ and angular momentum on irregular point clouds; broken bonds that carry no force
 density and bulk modulus; forces that are minus the gradient of the stored energy; zero force
 under rigid motion; agreement of the fused and generic force paths and of row-local parts;
 independence from the thread count (:mod:`peridyn.testing.physics_checks` gives the
-tolerances). :class:`DamageConformance` does the same for damage models.
+tolerances). :class:`DamageConformance` does the same for damage models, and
+:class:`ContactConformance` for contact models (:mod:`peridyn.testing.contact_suite`).
 
 :mod:`peridyn.testing.probes` holds the measurements (moduli of a lattice model, interior
 points); :mod:`peridyn.testing.mutants` derives buggy variants of a model and runs a suite's
@@ -33,9 +34,11 @@ from .harness import (
     node_set_ids,
     scattered_deck,
 )
+from .contact_suite import ContactConformance
 from .suites import DamageConformance, MaterialConformance
 
 __all__ = [
+    "ContactConformance",
     "DamageConformance",
     "MaterialConformance",
     "build_simulation",
