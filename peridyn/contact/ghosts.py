@@ -22,8 +22,8 @@ from .search import MAX_CELLS, cell_keys_kernel, column_keys
 #: MPI tag of contact ghost messages (the engine's halo uses another)
 CONTACT_TAG = 7102
 
-#: columns of a ghost record: y (3), v (3), s (3), volume, horizon, block, gid
-_WIDTH = 13
+#: columns of a ghost record: y (3), v (3), s (3), volume, horizon, block, gid, x (3)
+_WIDTH = 16
 
 
 @njit(cache=True, parallel=True)
@@ -66,9 +66,9 @@ class ContactGhosts:
         dims = np.where(np.isfinite(dims), np.minimum(dims, MAX_CELLS), MAX_CELLS).astype(np.int64)
         return lo, 1.0 / h, np.maximum(dims, 1)
 
-    def build(self, manager: Any, rb: float) -> tuple[ContactState, np.ndarray]:
+    def build(self, manager: Any, rb: float) -> tuple[ContactState, np.ndarray, np.ndarray]:
         """New ghosts for pair lists of radius rb; returns the contact state (owned points, then
-        ghosts) and the search positions of the same points. Collective."""
+        ghosts), and the search and reference positions of the same points. Collective."""
         sim, comm, n = self.sim, self.comm, self.n_owned
         fields = sim.fields
         y = np.ascontiguousarray(fields["Coordinates"][:n])
@@ -95,6 +95,7 @@ class ContactGhosts:
         record[:, 10] = manager.horizon
         record[:, 11] = manager.block
         record[:, 12] = manager.gid
+        record[:, 13:16] = fields["Model_Coordinates"][:n]
         send_index = [np.flatnonzero(dest[:, r]) for r in range(comm.size)]
         received = comm.alltoall([record[idx] for idx in send_index])
         ghosts = np.concatenate(received) if received else np.zeros((0, _WIDTH))
@@ -115,7 +116,8 @@ class ContactGhosts:
         send_counts = np.array([idx.size for idx in send_index], dtype=np.int64)
         recv_counts = np.array([a.shape[0] for a in received], dtype=np.int64)
         self.halo = Halo(comm.comm, np.concatenate(send_index).astype(np.int64), send_counts, np.arange(n, m, dtype=np.int64), recv_counts, tag=CONTACT_TAG)
-        return ContactState(yy, vv, volume, horizon, block, gid, n), ss
+        xx = np.concatenate([fields["Model_Coordinates"][:n], ghosts[:, 13:16]])
+        return ContactState(yy, vv, volume, horizon, block, gid, n), ss, xx
 
     def update(self, state: ContactState) -> None:
         """Copy the owned points' current positions and velocities into the state and refresh

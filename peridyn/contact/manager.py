@@ -61,6 +61,12 @@ class ContactManager:
         self.s = np.ascontiguousarray(sim.fields["Model_Coordinates"][:n], dtype=np.float64).copy()
         sim.fields.declare(FieldSpec("Contact_Force_Density", Relation.NODE, Length.VECTOR))
         self.one_offsets, self.one_gid = one_sided_partners(sim, uniform=bool(np.unique(block_horizon).size <= 1))
+        # bonded pairs are recognised by their reference distance where the bond lists are
+        # "every point within the horizon" (no grid rule, no bond filters)
+        dentry = sim.deck.discretization
+        self.near_rule = sim.discretization.neighbor_rule is None and not dentry.bond_filters
+        self.cross_block = dentry.omit_bonds_between_blocks != "All"
+        self.near2 = (self.horizon * (1.0 - 1e-9)) ** 2 if self.near_rule else np.full(n, -1.0)
         self.ghosts = None
         if sim.comm.size > 1:
             from .ghosts import ContactGhosts
@@ -137,14 +143,16 @@ class ContactManager:
         sim = self.sim
         n = self.num_owned
         if self.ghosts is not None:
-            state, s = self.ghosts.build(self, self.rb)
+            state, s, x = self.ghosts.build(self, self.rb)
             self.state = state
             self.stats["ghosts"] = max(self.stats["ghosts"], state.y.shape[0] - n)
+            near2 = np.concatenate([self.near2, (state.horizon[n:] * (1.0 - 1e-9)) ** 2 if self.near_rule else np.full(state.y.shape[0] - n, -1.0)])
         else:
-            s = self.s
+            s, x, near2 = self.s, sim.fields["Model_Coordinates"], self.near2
         assert state is not None
         offsets, partners, visits, cap, passes = search_pairs(
-            n, state.y, s, state.gid, self.rb, self.search_radius, sim.bonds, sim.gid, self.one_offsets, self.one_gid, self.capacity
+            n, state.y, s, state.gid, self.rb, self.search_radius, sim.bonds, sim.gid, self.one_offsets, self.one_gid, self.capacity,
+            shortcut=(x, near2, state.block, self.cross_block),
         )
         self.stats["overflows"] += passes - 1
         largest = int(np.diff(offsets).max()) if n else 0

@@ -85,39 +85,67 @@ def column_keys(ix, iy, cz, dims):
 
 
 @njit(cache=True, parallel=True)
-def pair_search_kernel(num_owned, y, s, gid, sorted_keys, order, lo, inv_h, dims, rb2, rs2,
-                       bond_offsets, bond_neighbors, bond_gid, one_offsets, one_gid, cap, buf, buf_visits, counts):
+def pair_search_kernel(num_owned, y, s, gid, order, ys, cells, cell_start, dims, rb2, rs2,
+                       bond_offsets, bond_neighbors, bond_gid, one_offsets, one_gid, x, near2, block, cross_block,
+                       cap, buf, buf_visits, counts):
     """Candidate pairs of every owned point p into buf[p * cap : p * cap + counts[p]] (rows
-    sorted by gid); counts[p] > cap means the row did not fit. y, s: (n, 3) current and
-    last-search positions; bond rows are sorted by bond_gid[neighbor]; one_gid rows (sorted)
-    are the partners bonded one way only."""
-    for p in prange(num_owned):
-        cx = _cell(y[p, 0], lo[0], inv_h, dims[0])
-        cy = _cell(y[p, 1], lo[1], inv_h, dims[1])
-        cz = _cell(y[p, 2], lo[2], inv_h, dims[2])
-        base = p * cap
-        cnt = 0
+    sorted by gid); counts[p] > cap means the row did not fit.
+
+    y, s: (n, 3) current and last-search positions; ``order`` sorts the points by cell, ys =
+    y[order]; ``cells`` are the occupied cell keys (sorted), the points of cell c are
+    order[cell_start[c]:cell_start[c + 1]]. Bond rows are sorted by bond_gid[neighbor]; one_gid
+    rows (sorted) are the partners bonded one way only. Shortcut: j is in p's bond list, without
+    a search of the list, when |x_j - x_p|^2 < near2[p] (reference positions x; near2 < 0
+    disables it) and the blocks agree or ``cross_block`` (bonds between blocks are kept).
+    Parallel over cells: the 9 key ranges around a cell are found once for all its points."""
+    d12 = dims[1] * dims[2]
+    for c in prange(cells.size):
+        key = cells[c]
+        cx = key // d12
+        cy = (key // dims[2]) % dims[1]
+        cz = key % dims[2]
+        first = np.empty(9, dtype=np.int64)
+        last = np.empty(9, dtype=np.int64)
+        m = 0
         for ix in range(max(cx - 1, 0), min(cx + 2, dims[0])):
             for iy in range(max(cy - 1, 0), min(cy + 2, dims[1])):
                 k0, k1 = column_keys(ix, iy, cz, dims)
-                first = np.searchsorted(sorted_keys, k0, side="left")
-                last = np.searchsorted(sorted_keys, k1, side="right")
-                for t in range(first, last):
+                a = np.searchsorted(cells, k0, side="left")
+                b = np.searchsorted(cells, k1, side="right")
+                if a < b:
+                    first[m] = cell_start[a]
+                    last[m] = cell_start[b]
+                    m += 1
+        for t0 in range(cell_start[c], cell_start[c + 1]):
+            p = order[t0]
+            if p >= num_owned:
+                continue
+            base = p * cap
+            cnt = 0
+            y0 = ys[t0, 0]
+            y1 = ys[t0, 1]
+            y2 = ys[t0, 2]
+            for r in range(m):
+                for t in range(first[r], last[r]):
+                    dx = ys[t, 0] - y0
+                    dy = ys[t, 1] - y1
+                    dz = ys[t, 2] - y2
+                    if not (dx * dx + dy * dy) + dz * dz <= rb2 or t == t0:
+                        continue
                     j = order[t]
-                    if j == p:
-                        continue
-                    dx = y[j, 0] - y[p, 0]
-                    dy = y[j, 1] - y[p, 1]
-                    dz = y[j, 2] - y[p, 2]
-                    if not (dx * dx + dy * dy) + dz * dz <= rb2:
-                        continue
                     ex = s[j, 0] - s[p, 0]
                     ey = s[j, 1] - s[p, 1]
                     ez = s[j, 2] - s[p, 2]
                     if not (ex * ex + ey * ey) + ez * ez <= rs2:
                         continue
                     gj = gid[j]
-                    node = not in_sorted(bond_neighbors, bond_offsets[p], bond_offsets[p + 1], gj, bond_gid)
+                    fx = x[j, 0] - x[p, 0]
+                    fy = x[j, 1] - x[p, 1]
+                    fz = x[j, 2] - x[p, 2]
+                    if (fx * fx + fy * fy) + fz * fz < near2[p] and (cross_block or block[j] == block[p]):
+                        node = False
+                    else:
+                        node = not in_sorted(bond_neighbors, bond_offsets[p], bond_offsets[p + 1], gj, bond_gid)
                     partner = node
                     if one_offsets[p + 1] > one_offsets[p] and _in_sorted_plain(one_gid, one_offsets[p], one_offsets[p + 1], gj):
                         partner = not node
@@ -133,7 +161,7 @@ def pair_search_kernel(num_owned, y, s, gid, sorted_keys, order, lo, inv_h, dims
                         buf[base + k] = j
                         buf_visits[base + k] = (1 if node else 0) | (2 if partner else 0)
                     cnt += 1
-        counts[p] = cnt
+            counts[p] = cnt
 
 
 @njit(cache=True, parallel=True)
@@ -178,10 +206,12 @@ def min_pair_distance2_kernel(num_owned, offsets, partners, y):
 
 
 def search_pairs(num_owned: int, y: np.ndarray, s: np.ndarray, gid: np.ndarray, rb: float, rs: float, bonds, bond_gid: np.ndarray,
-                 one_offsets: np.ndarray, one_gid: np.ndarray, cap: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
+                 one_offsets: np.ndarray, one_gid: np.ndarray, cap: int, shortcut: tuple | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
     """The pairs of every owned point (see the module docstring).
 
-    y, s: (n, 3) current and last-search positions of owned points then ghosts; gid (n,).
+    y, s: (n, 3) current and last-search positions of owned points then ghosts; gid (n,);
+    shortcut: (x (n, 3) reference positions, near2 (n,), block (n,), cross_block) for the bond
+    test (see ``pair_search_kernel``), or None.
     Returns (offsets (num_owned + 1,) int64, partners int32, visits uint8, the capacity used,
     the number of searches run: more than 1 when a row overflowed the capacity)."""
     n = y.shape[0]
@@ -190,14 +220,21 @@ def search_pairs(num_owned: int, y: np.ndarray, s: np.ndarray, gid: np.ndarray, 
     cell_keys_kernel(n, y, lo, inv_h, dims, keys)
     order = np.argsort(keys, kind="stable")
     sorted_keys = keys[order]
+    cells, cell_start = np.unique(sorted_keys, return_index=True)
+    cell_start = np.append(cell_start, n).astype(np.int64)
+    ys = np.ascontiguousarray(y[order])
     counts = np.zeros(num_owned, dtype=np.int64)
+    if shortcut is None:
+        shortcut = (y, np.full(n, -1.0), np.zeros(n, np.int64), True)
+    x, near2, block, cross_block = shortcut
     passes = 0
     while True:
         passes += 1
         buf = np.empty(num_owned * cap, dtype=np.int32)
         buf_visits = np.empty(num_owned * cap, dtype=np.uint8)
-        pair_search_kernel(num_owned, y, s, gid, sorted_keys, order, lo, inv_h, dims, rb * rb, rs * rs,
-                           bonds.offsets, bonds.neighbors, bond_gid, one_offsets, one_gid, cap, buf, buf_visits, counts)
+        pair_search_kernel(num_owned, y, s, gid, order, ys, cells, cell_start, dims, rb * rb, rs * rs,
+                           bonds.offsets, bonds.neighbors, bond_gid, one_offsets, one_gid, x, near2, block, bool(cross_block),
+                           cap, buf, buf_visits, counts)
         largest = int(counts.max()) if num_owned else 0
         if largest <= cap:
             break
