@@ -255,6 +255,10 @@ def cmd_check(args) -> int:
         print(f"  estimated stable time step (Verlet): {dt:.6g}")
     except Exception as exc:  # a material without a bulk modulus
         print(f"  estimated stable time step: unavailable ({exc})")
+    if sim.contact is not None:
+        c = sim.contact
+        print(f"  contact: {c.model.name}, contact radius {c.rc:.6g}, search radius {c.search_radius:.6g} every {c.frequency} step(s); "
+              f"stable time step with the contact springs {c.stable_time_step():.6g}")
     from .engine.limits import human_seconds
 
     for entry, (_, steps, seconds) in zip(deck.solvers, sim.plan_solvers()):
