@@ -505,7 +505,12 @@ def _parse_discretization(raw, registry, file, errors, lines) -> DiscretizationE
     raw_filters = raw.get("Bond Filters", {})
     if raw_filters and not cls.supports_bond_filters:
         errors.append(InputError(f"bond filters cannot be used with {dtype}", file=file, path=path + ("Bond Filters",), fix="use an Exodus or Text File mesh"))
-    elif isinstance(raw_filters, Mapping):
+    elif not isinstance(raw_filters, Mapping):
+        errors.append(
+            InputError(f"'Bond Filters' must be a list of named filters, got {type(raw_filters).__name__} {raw_filters!r:.60}",
+                       file=file, path=path + ("Bond Filters",), fix="give each filter as a named sublist with 'Type: Rectangular_Plane'")
+        )
+    else:
         for fname, fraw in raw_filters.items():
             fpath = path + ("Bond Filters", fname)
             if not isinstance(fraw, Mapping):
