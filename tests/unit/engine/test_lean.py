@@ -18,6 +18,7 @@ def test_no_bond_damage_array_without_a_damage_model():
 
 def test_outputs_nobody_asked_for_are_not_allocated():
     sim = build_simulation(cube_deck(ELASTIC, n=3))
+    assert sim.contact is None and "Contact_Force_Density" not in sim.fields  # no contact arrays without Contact
     for name in ("Kinetic_Energy", "Acceleration", "Force", "External_Force_Density", "Temperature", "Horizon", "Deformation_Gradient"):
         assert name not in sim.fields, name
     extra = {"Output": {"Output Filename": "o", "Output Frequency": 1, "Output Variables": {"Kinetic_Energy": True}}}
