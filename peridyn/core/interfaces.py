@@ -141,6 +141,11 @@ class Material(ABC):
         """Fields this material reads and writes beyond the ones every run has."""
         return []
 
+    def output_fields(self) -> list[FieldSpec]:
+        """Fields this material can fill for an output (e.g. ``Cauchy_Stress``): allocated only
+        when an output asks for one; the material fills those present in ``block.fields``."""
+        return []
+
     def initialize(self, block: BlockView) -> None:
         """Once, in the reference configuration (e.g. weighted volume)."""
 

@@ -98,7 +98,7 @@ def plan_fusion(sim: Any) -> None:
         and not sim.generic_blocks
         and all(blk.material.row_local and (blk.damage is None or blk.damage.row_local) for blk in sim.blocks)
     )
-    if sim.generic_blocks:
+    if any(blk.material.force_state_kind == "scalar" for blk in sim.generic_blocks):
         sim.bond_force = np.zeros(nl.num_bonds)
         nl.transpose()
         nl.sources()

@@ -134,7 +134,7 @@ class OutputManager:
     def _model_fields(self) -> dict[str, FieldSpec]:
         out: dict[str, FieldSpec] = {}
         for blk in self.sim.blocks:
-            specs = blk.material.fields() + (blk.damage.fields() if blk.damage is not None else [])
+            specs = blk.material.fields() + blk.material.output_fields() + (blk.damage.fields() if blk.damage is not None else [])
             for spec in specs:
                 if spec.relation is not Relation.BOND:
                     out.setdefault(spec.name, spec)
@@ -164,7 +164,7 @@ class OutputManager:
             return [bool(owners(self.sim, blk)) for blk in self.sim.blocks]
         if var.compute is None and name not in STANDARD_FIELDS:
             return [
-                any(s.name == name for s in blk.material.fields() + (blk.damage.fields() if blk.damage is not None else []))
+                any(s.name == name for s in blk.material.fields() + blk.material.output_fields() + (blk.damage.fields() if blk.damage is not None else []))
                 for blk in self.sim.blocks
             ]
         return [True] * len(self.sim.blocks)

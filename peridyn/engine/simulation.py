@@ -31,6 +31,7 @@ from .kernels import (
     critical_time_step_kernel,
     foreign_neighbor_kernel,
     gather_scalar_force_kernel,
+    gather_vector_force_kernel,
 )
 
 log = logging.getLogger("peridyn.engine")
@@ -53,6 +54,7 @@ class Simulation:
         self.time = 0.0
         self.time_prev = 0.0
         self.delta_u: np.ndarray | None = None
+        self.bond_force_vector: np.ndarray | None = None  #: (num_bonds, 3) vector force states (non-ordinary materials only)
         self.nonlinear_iterations = 0
         self.timers: dict[str, float] = {}
         self.stats: dict[str, Any] = {}
@@ -394,6 +396,14 @@ class Simulation:
             if blk.damage is not None:
                 blk.damage.begin_step(blk.view, time)
 
+    def set_time_step(self, dt: float) -> None:
+        """The solver's time step (or load-step increment), for rate-form materials (T)."""
+        self.time_step = float(dt)
+        for blk in self.blocks:
+            blk.view.time_step = self.time_step
+            if blk.fused_view is not None:
+                blk.fused_view.time_step = self.time_step
+
     def exchange_halo_fields(self) -> None:
         """Refresh the ghost copies of the current positions and of every field marked halo."""
         if self.comm.size == 1:
@@ -451,22 +461,31 @@ class Simulation:
             if not (blk.fused and blk.material.force_fused(blk.fused_view or blk.view, f)):
                 pending.extend(blk.group)
         if pending:
-            if self.bond_force is None:
+            scalar = any(blk.material.force_state_kind == "scalar" for blk in pending)
+            vector = any(blk.material.force_state_kind == "vector" for blk in pending)
+            if scalar and self.bond_force is None:
                 self.bond_force = np.zeros(self.bonds.num_bonds)
-                self.bonds.transpose()
-                self.bonds.sources()
-            t = self.bond_force
+            if vector and self.bond_force_vector is None:  # non-ordinary materials only
+                self.bond_force_vector = np.zeros((self.bonds.num_bonds, 3))
+            t, T = self.bond_force, self.bond_force_vector
             for blk in pending:
-                blk.material.force_state(blk.view, t)
+                blk.material.force_state(blk.view, T if blk.material.force_state_kind == "vector" else t)
             nl = self.bonds
             in_offsets, in_bonds = nl.transpose()
             sources = nl.sources()
             y, vol = self.fields["Coordinates"], self.fields["Volume"]
-            for blk in pending:
-                gather_scalar_force_kernel(blk.start, blk.stop, nl.offsets, nl.neighbors, in_offsets, in_bonds, sources, y, vol, t, f)
+            ranges = [(blk.start, blk.stop) for blk in pending]
             if parallel and self.num_local > self.num_owned:
                 # reactions of this rank's bonds on ghosts go to the ghosts' owners
-                gather_scalar_force_kernel(self.num_owned, self.num_local, nl.offsets, nl.neighbors, in_offsets, in_bonds, sources, y, vol, t, f)
+                ranges.append((self.num_owned, self.num_local))
+            for lo, hi in ranges:
+                if t is not None:
+                    gather_scalar_force_kernel(lo, hi, nl.offsets, nl.neighbors, in_offsets, in_bonds, sources, y, vol, t, f)
+                else:
+                    f[lo:hi] = 0.0
+                if T is not None:
+                    gather_vector_force_kernel(lo, hi, nl.offsets, nl.neighbors, in_offsets, in_bonds, sources, vol, T, f)
+            if parallel and self.num_local > self.num_owned:
                 self.halo.reverse_sum(f)
         return f
 
@@ -592,6 +611,8 @@ class Simulation:
         total = self.fields.nbytes() + self.bonds.nbytes()
         if self.bond_force is not None:
             total += self.bond_force.nbytes
+        if self.bond_force_vector is not None:
+            total += self.bond_force_vector.nbytes
         return total
 
 

@@ -107,6 +107,7 @@ class Verlet(Solver):
         a = getattr(sim, "acceleration", None)
         if a is None:
             a = sim.acceleration = np.zeros((n, 3))
+        sim.set_time_step(dt)
         log.info("%s: Verlet, dt = %.6g (critical estimate %.6g), %d steps from t = %.6g to %.6g", self.section, dt, dt_crit, nsteps, t0, t0 + nsteps * dt)
 
         contact = getattr(sim, "contact", None)
