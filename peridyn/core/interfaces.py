@@ -115,6 +115,9 @@ class Material(ABC):
     #: point fields ``precompute`` writes that the other end of a bond reads (under MPI they are
     #: exchanged to ghosts after every precompute; other halo fields once, after initialize)
     precompute_fields: ClassVar[tuple[str, ...]] = ()
+    #: point fields other than Coordinates whose ghost values the material reads (e.g. the
+    #: velocities of a rate-form material): under MPI they are exchanged before every evaluation
+    ghost_inputs: ClassVar[tuple[str, ...]] = ()
     #: True promises that ``precompute``, ``precompute_with_damage`` and ``force_fused`` write
     #: only the view's rows ``start:stop`` and read of other points only their positions and
     #: ``precompute_fields`` (and constant fields), and that ``force_fused`` returns True for

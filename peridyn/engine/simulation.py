@@ -323,6 +323,8 @@ class Simulation:
             blk.split = int(self.block_splits[k])
             self.blocks.append(blk)
         raise_collected(errors)
+        #: point fields some material reads at ghosts (exchanged before every evaluation)
+        self.ghost_inputs = list(dict.fromkeys(n for blk in self.blocks for n in blk.material.ghost_inputs))
         #: point fields some material's precompute writes (exchanged to ghosts after it)
         self.precompute_fields = list(dict.fromkeys(n for blk in self.blocks for n in blk.material.precompute_fields))
 
@@ -442,6 +444,8 @@ class Simulation:
             self.halo.exchange(self.fields["Coordinates"])
             if "Temperature_Change" in self.fields:
                 self.halo.exchange(self.fields["Temperature_Change"])
+            for name in self.ghost_inputs:
+                self.halo.exchange(self.fields[name])
         for blk in self.blocks:
             if blk.damage is not None and not blk.damage_adopted:
                 blk.damage.update(blk.view)

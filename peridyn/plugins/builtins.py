@@ -13,6 +13,7 @@ BUILTIN_COMPUTES: tuple[tuple[str, str], ...] = (
     ("Acceleration", f"{_K}:Acceleration"),
     ("Force", f"{_K}:Force"),
     ("Contact_Force", f"{_K}:ContactForce"),
+    ("Hourglass_Force_Density", "peridyn.materials.correspondence.outputs:HourglassForceDensity"),
     ("Kinetic_Energy", f"{_K}:KineticEnergy"),
     ("Global_Kinetic_Energy", f"{_K}:GlobalKineticEnergy"),
     ("Linear_Momentum", f"{_K}:LinearMomentum"),
@@ -52,6 +53,10 @@ def peridyn_materials():
     return [
         ("Elastic", "peridyn.materials.elastic:Elastic"),
         ("Elastic Bond Based", "peridyn.materials.elastic_bond_based:ElasticBondBased"),
+        ("Elastic Correspondence", "peridyn.materials.correspondence.classic:ElasticCorrespondence"),
+        ("Elastic Plastic Correspondence", "peridyn.materials.correspondence.classic:ElasticPlasticCorrespondence"),
+        ("Isotropic Hardening Correspondence", "peridyn.materials.correspondence.classic:IsotropicHardeningCorrespondence"),
+        ("Viscoplastic Needleman Correspondence", "peridyn.materials.correspondence.classic:ViscoplasticNeedlemanCorrespondence"),
     ]
 
 

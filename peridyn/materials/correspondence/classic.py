@@ -1,0 +1,249 @@
+"""Peridigm's classic correspondence materials: ``Elastic Correspondence``, ``Elastic Plastic
+Correspondence``, ``Isotropic Hardening Correspondence`` and ``Viscoplastic Needleman
+Correspondence`` (PERIDIGM_CORRESPONDENCE.md §2-§7).
+
+Each force evaluation, per block: K⁻¹ and F from the current positions, the velocity gradient
+and the Flanagan-Taylor update of V and R (rate form: nothing is recomputed from F), the stress
+update of the model in the unrotated configuration, the Cauchy stress, A = P K⁻¹, and the vector
+force state of every bond of the block's points, T(i→j) = ω (A_i ξ) plus the hourglass term
+M(i→j) η. The engine gathers T from both bond ends (the non-ordinary path of
+:class:`peridyn.core.interfaces.Material`). Bond damage is ignored, as in Peridigm.
+"""
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import numpy as np
+from numba import njit, prange
+
+from ...core.errors import InstabilityError
+from ...core.fields import FieldSpec, Length, Relation, Temporal
+from ...core.interfaces import BlockView, Material
+from ..moduli import bulk_and_shear
+from . import params as P
+from .forces import _force_state, _hourglass_bond, partial_stress_kernel
+from .kinematics import kinematics_kernel, shape_tensor_kernel
+from .stress import elastic_plastic_stress_kernel, elastic_stress_kernel, isotropic_hardening_stress_kernel, needleman_stress_kernel, rotate_piola_kernel
+
+PI = 3.141592653589793
+
+TENSOR2 = Temporal.TWO_STEP
+IDENTITY = np.array([1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0])
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def bond_states_kernel(start, stop, offsets, neighbors, x, y, horizon, omega_kind, omega_table, A, F, c1, T):
+    """T[b] = ω(ζ, δ_i)(A_i ξ) + M(i→j) η for every bond b = i→j of the rows [start, stop):
+    the classic vector force state (force per volume squared) with the hourglass term of
+    §7 (c1 = 18 C K / π; none when c1 == 0)."""
+    for i in prange(start, stop):
+        for b in range(offsets[i], offsets[i + 1]):
+            j = neighbors[b]
+            tx, ty, tz, _, _, _ = _force_state(A, i, x, j, horizon[i], omega_kind, omega_table, b)
+            if c1 != 0.0:
+                hx, hy, hz = _hourglass_bond(i, j, x, y, F, c1, horizon[i])
+                tx += hx
+                ty += hy
+                tz += hz
+            T[b, 0] = tx
+            T[b, 1] = ty
+            T[b, 2] = tz
+
+
+class ClassicCorrespondence(Material):
+    """The family's sequence; subclasses supply the stress update (``_update_stress``)."""
+
+    Params: ClassVar[type] = P.ClassicParams
+    force_state_kind = "vector"
+    ghost_inputs = ("Velocity",)  # the velocity gradient reads the neighbors' velocities
+    plastic: ClassVar[bool] = False
+
+    def __init__(self, params, *, horizon: float | None, options: dict[str, Any] | None = None) -> None:
+        super().__init__(params, horizon=horizon, options=options)
+        self.K, self.G = bulk_and_shear(params.bulk_modulus, params.shear_modulus, params.youngs_modulus, params.poissons_ratio,
+                                        plane_strain=params.plane_strain, plane_stress=params.plane_stress)
+        self.c1 = ((18.0 * params.hourglass_coefficient) * self.K) / PI
+        self._work: dict[str, np.ndarray] = {}
+
+    requires_constant_horizon = False  # the per-point Horizon field is used
+
+    @property
+    def density(self) -> float:
+        return float(self.params.density)
+
+    @property
+    def bulk_modulus(self) -> float:
+        return float(self.K)
+
+    def fields(self) -> list[FieldSpec]:
+        specs = [
+            FieldSpec("Horizon", Relation.ELEMENT),
+            FieldSpec("Deformation_Gradient", Relation.ELEMENT, Length.TENSOR),
+            FieldSpec("Shape_Tensor_Inverse", Relation.ELEMENT, Length.TENSOR),
+            FieldSpec("Left_Stretch_Tensor", Relation.ELEMENT, Length.TENSOR, TENSOR2),
+            FieldSpec("Rotation_Tensor", Relation.ELEMENT, Length.TENSOR, TENSOR2),
+            FieldSpec("Unrotated_Cauchy_Stress", Relation.ELEMENT, Length.TENSOR, TENSOR2),
+        ]
+        if self.plastic:
+            specs.append(FieldSpec("Equivalent_Plastic_Strain", Relation.ELEMENT, Length.SCALAR, TENSOR2))
+        return specs
+
+    def output_fields(self) -> list[FieldSpec]:
+        specs = [
+            FieldSpec("Unrotated_Rate_Of_Deformation", Relation.ELEMENT, Length.TENSOR),
+            FieldSpec("Cauchy_Stress", Relation.ELEMENT, Length.TENSOR, TENSOR2),
+            FieldSpec("Partial_Stress", Relation.ELEMENT, Length.TENSOR, TENSOR2),
+        ]
+        if self.plastic:
+            specs.append(FieldSpec("Von_Mises_Stress", Relation.ELEMENT))
+        return specs
+
+    # -- helpers ------------------------------------------------------------------------------
+    def _omega(self, block: BlockView):
+        inf = block.influence
+        table = getattr(self, "omega_table", None)
+        if inf.needs_table and table is None:
+            s, nl = block.fields, block.bonds
+            table = self.omega_table = inf.table_for(nl.offsets, nl.neighbors, s["Model_Coordinates"], np.arange(block.start, block.stop), block.horizon)
+        return inf.kind, table if table is not None else np.zeros(0)
+
+    def _scratch(self, name: str, shape: tuple[int, ...]) -> np.ndarray:
+        a = self._work.get(name)
+        if a is None or a.shape != shape:
+            a = self._work[name] = np.zeros(shape)
+        return a
+
+    def _field_or_scratch(self, block: BlockView, name: str, width: int = 9) -> np.ndarray:
+        s = block.fields
+        if name in s:
+            return s[name]
+        return self._scratch(name, (s.num_points, width) if width > 1 else (s.num_points,))
+
+    def _singular(self, block: BlockView, i: int, what: str) -> None:
+        gid = int(block.extras["gid"][i]) + 1 if "gid" in block.extras else i + 1
+        raise InstabilityError(
+            f"{self.name}: the {what} of point {gid} (block {block.name}) is singular: every point needs at least three "
+            "neighbors that do not lie in one plane (Peridigm stops here too)",
+            collective=False,
+        )
+
+    # -- the Material contract ----------------------------------------------------------------
+    def initialize(self, block: BlockView) -> None:
+        s, nl = block.fields, block.bonds
+        lo, hi = block.start, block.stop
+        for name in ("Left_Stretch_Tensor", "Rotation_Tensor"):
+            s.n(name)[lo:hi] = IDENTITY
+            s.np1(name)[lo:hi] = IDENTITY
+        for name in ("Unrotated_Cauchy_Stress",) + (("Equivalent_Plastic_Strain",) if self.plastic else ()):
+            s.n(name)[lo:hi] = 0.0
+            s.np1(name)[lo:hi] = 0.0
+        kind, table = self._omega(block)
+        bad = shape_tensor_kernel(lo, hi, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Coordinates"], s["Volume"], s["Horizon"],
+                                  kind, table, s["Shape_Tensor_Inverse"], s["Deformation_Gradient"])
+        if bad >= 0:
+            self._singular(block, bad, "shape tensor")
+
+    def force_state(self, block: BlockView, T: np.ndarray) -> None:
+        s, nl = block.fields, block.bonds
+        lo, hi = block.start, block.stop
+        n = s.num_points
+        kind, table = self._omega(block)
+        x, y, vol, hz = s["Model_Coordinates"], s["Coordinates"], s["Volume"], s["Horizon"]
+        d = self._field_or_scratch(block, "Unrotated_Rate_Of_Deformation")
+        bad_k, bad_f = kinematics_kernel(
+            lo, hi, nl.offsets, nl.neighbors, x, y, s["Velocity"], vol, hz, kind, table,
+            s.n("Left_Stretch_Tensor"), s.n("Rotation_Tensor"), float(block.time_step),
+            s["Shape_Tensor_Inverse"], s["Deformation_Gradient"], s.np1("Left_Stretch_Tensor"), s.np1("Rotation_Tensor"), d,
+        )
+        if bad_k >= 0:
+            self._singular(block, bad_k, "shape tensor")
+        if bad_f >= 0:
+            self._singular(block, bad_f, "deformation gradient")
+        self._update_stress(block, d)
+        sigma = self._field_or_scratch(block, "Cauchy_Stress")
+        A = self._scratch("A", (n, 9))
+        bad = rotate_piola_kernel(lo, hi, s.np1("Rotation_Tensor"), s.np1("Unrotated_Cauchy_Stress"), s["Deformation_Gradient"],
+                                  s["Shape_Tensor_Inverse"], sigma, A)
+        if bad >= 0:
+            self._singular(block, bad, "deformation gradient")
+        bond_states_kernel(lo, hi, nl.offsets, nl.neighbors, x, y, hz, kind, table, A, s["Deformation_Gradient"], float(self.c1), T)
+        if "Partial_Stress" in s:
+            ps = s["Partial_Stress"]
+            ps[lo:hi] = 0.0
+            partial_stress_kernel(lo, hi, nl.offsets, nl.neighbors, x, vol, hz, kind, table, A, ps)
+
+    def _update_stress(self, block: BlockView, d: np.ndarray) -> None:
+        raise NotImplementedError
+
+    def _vm(self, block: BlockView) -> np.ndarray:
+        return self._field_or_scratch(block, "Von_Mises_Stress", 1)
+
+
+class ElasticCorrespondence(ClassicCorrespondence):
+    name = "Elastic Correspondence"
+    Params = P.ElasticCorrespondenceParams
+
+    def fields(self) -> list[FieldSpec]:
+        specs = super().fields()
+        if self.params.thermal_expansion_coefficient is not None:
+            specs.append(FieldSpec("Temperature_Change", Relation.NODE, Length.SCALAR, TENSOR2))
+        return specs
+
+    def _update_stress(self, block: BlockView, d: np.ndarray) -> None:
+        s = block.fields
+        alpha = self.params.thermal_expansion_coefficient
+        if alpha is not None:
+            dT_N, dT_NP1, a = s.n("Temperature_Change"), s.np1("Temperature_Change"), float(alpha)
+        else:
+            dT_N = dT_NP1 = np.zeros(0)
+            a = 0.0
+        elastic_stress_kernel(block.start, block.stop, d, s.n("Unrotated_Cauchy_Stress"), float(block.time_step), self.K, self.G,
+                              dT_N, dT_NP1, a, s.np1("Unrotated_Cauchy_Stress"))
+
+
+class ElasticPlasticCorrespondence(ClassicCorrespondence):
+    name = "Elastic Plastic Correspondence"
+    Params = P.ElasticPlasticCorrespondenceParams
+    plastic = True
+
+    def _update_stress(self, block: BlockView, d: np.ndarray) -> None:
+        s = block.fields
+        elastic_plastic_stress_kernel(block.start, block.stop, d, s.n("Unrotated_Cauchy_Stress"), s.n("Equivalent_Plastic_Strain"),
+                                      float(block.time_step), self.K, self.G, float(self.params.yield_stress),
+                                      s.np1("Unrotated_Cauchy_Stress"), s.np1("Equivalent_Plastic_Strain"), self._vm(block))
+
+
+def _flaw_args(params) -> tuple:
+    flaw = params.flaw
+    return (True, *flaw) if flaw is not None else (False, 0.0, 0.0, 0.0, 1.0, 0.0)
+
+
+class IsotropicHardeningCorrespondence(ClassicCorrespondence):
+    name = "Isotropic Hardening Correspondence"
+    Params = P.IsotropicHardeningCorrespondenceParams
+    plastic = True
+
+    def _update_stress(self, block: BlockView, d: np.ndarray) -> None:
+        s, p = block.fields, self.params
+        on, fx, fy, fz, size, mag = _flaw_args(p)
+        isotropic_hardening_stress_kernel(
+            block.start, block.stop, d, s.n("Unrotated_Cauchy_Stress"), s.n("Equivalent_Plastic_Strain"), float(block.time_step),
+            self.K, self.G, float(p.yield_stress), float(p.hardening_modulus), on, s["Model_Coordinates"], fx, fy, fz, size, mag,
+            s.np1("Unrotated_Cauchy_Stress"), s.np1("Equivalent_Plastic_Strain"), self._vm(block),
+        )
+
+
+class ViscoplasticNeedlemanCorrespondence(ClassicCorrespondence):
+    name = "Viscoplastic Needleman Correspondence"
+    Params = P.ViscoplasticNeedlemanCorrespondenceParams
+    plastic = True
+
+    def _update_stress(self, block: BlockView, d: np.ndarray) -> None:
+        s, p = block.fields, self.params
+        on, fx, fy, fz, size, mag = _flaw_args(p)
+        needleman_stress_kernel(
+            block.start, block.stop, d, s.n("Unrotated_Cauchy_Stress"), s.n("Equivalent_Plastic_Strain"), float(block.time_step),
+            self.K, self.G, float(p.yield_stress), float(p.strain_hardening_exponent), float(p.rate_hardening_exponent),
+            float(p.reference_strain_rate), float(p.reference_strain_0), float(p.reference_strain_1), on, s["Model_Coordinates"],
+            fx, fy, fz, size, mag, s.np1("Unrotated_Cauchy_Stress"), s.np1("Equivalent_Plastic_Strain"), self._vm(block),
+        )
