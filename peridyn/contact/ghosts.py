@@ -17,7 +17,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..core.interfaces import ContactState
-from .search import MAX_CELLS, cell_keys_kernel, column_keys
+from .search import cell_keys_kernel, column_keys, grid_for_box
 
 #: MPI tag of contact ghost messages (the engine's halo uses another)
 CONTACT_TAG = 7102
@@ -59,12 +59,9 @@ class ContactGhosts:
         comm = self.comm
         lo = comm.allreduce_min(y.min(axis=0) if y.shape[0] else np.full(3, np.inf))
         hi = comm.allreduce_max(y.max(axis=0) if y.shape[0] else np.full(3, -np.inf))
-        if not np.all(np.isfinite(lo)):  # no rank owns a point
-            lo, hi = np.zeros(3), np.zeros(3)
-        with np.errstate(all="ignore"):
-            dims = np.floor((hi - lo) / h) + 1.0
-        dims = np.where(np.isfinite(dims), np.minimum(dims, MAX_CELLS), MAX_CELLS).astype(np.int64)
-        return lo, 1.0 / h, np.maximum(dims, 1)
+        if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):  # no rank owns a point, or a blow-up
+            lo, hi = np.where(np.isfinite(lo), lo, 0.0), np.where(np.isfinite(hi), hi, 0.0)
+        return grid_for_box(lo, hi, h)
 
     def build(self, manager: Any, rb: float) -> tuple[ContactState, np.ndarray, np.ndarray]:
         """New ghosts for pair lists of radius rb; returns the contact state (owned points, then

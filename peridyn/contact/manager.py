@@ -42,6 +42,17 @@ class ContactManager:
         mentry = entry.model
         self.model = mentry.cls(mentry.params, options={"deck_dir": sim.deck.directory, "path": mentry.path})
         self.rc = float(self.model.contact_radius)
+        if self.search_radius <= self.rc:
+            log.warning("%s: Contact > Search Radius %.4g is not larger than the Contact Radius %.4g: pairs that come into contact "
+                        "between two searches are missed; give a search radius of a few contact radii", sim.deck.file, self.search_radius, self.rc)
+        element = float(np.cbrt(3.0 * np.max(sim.discretization.volume) / (4.0 * np.pi))) if sim.discretization.num_points else 0.0
+        if element > 0 and self.search_radius / element >= 10.0:
+            log.warning("%s: Contact > Search Radius %.4g is %.0f times the largest element radius (Peridigm warns from 10 on); "
+                        "it only decides which pairs are looked at, so a smaller one costs less", sim.deck.file, self.search_radius,
+                        self.search_radius / element)
+        others = [e.section for e in sim.deck.solvers if e.method != "Verlet"]
+        if others:
+            log.warning("%s: contact acts in Verlet solvers only (as in Peridigm); it has no effect in %s", sim.deck.file, ", ".join(others))
         self.skin = SKIN_FRACTION * self.rc
         self.rb = self.rc + self.skin
         for blk in sim.blocks:

@@ -29,10 +29,20 @@ def cell_grid(y: np.ndarray, h: float) -> tuple[np.ndarray, float, np.ndarray]:
         return np.zeros(3), 1.0 / h, np.ones(3, dtype=np.int64)
     lo = y.min(axis=0)
     hi = y.max(axis=0)
-    with np.errstate(all="ignore"):
-        dims = np.floor((hi - lo) / h) + 1.0
-    dims = np.where(np.isfinite(dims), np.minimum(dims, MAX_CELLS), MAX_CELLS).astype(np.int64)
-    return lo.astype(np.float64), 1.0 / h, np.maximum(dims, 1)
+    return grid_for_box(lo, hi, h)
+
+
+def grid_for_box(lo: np.ndarray, hi: np.ndarray, h: float) -> tuple[np.ndarray, float, np.ndarray]:
+    """The grid of cells of size at least h over the box [lo, hi] with at most MAX_CELLS cells
+    per axis: a model whose points flew apart (an exploding run) gets bigger cells, not
+    points piled into the outermost ones."""
+    lo = np.where(np.isfinite(lo), lo, 0.0).astype(np.float64)
+    hi = np.where(np.isfinite(hi), hi, 0.0).astype(np.float64)
+    extent = float(np.max(hi - lo)) if lo.size else 0.0
+    h = max(h, extent / (MAX_CELLS - 1))
+    dims = np.floor((hi - lo) / h) + 1.0
+    dims = np.minimum(dims, MAX_CELLS).astype(np.int64)
+    return lo, 1.0 / h, np.maximum(dims, 1)
 
 
 @njit(cache=True, inline="always")

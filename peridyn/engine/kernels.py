@@ -45,31 +45,6 @@ def gather_scalar_force_kernel(start, stop, offsets, neighbors, in_offsets, in_b
         f[i, 2] = fz
 
 
-@njit(cache=True, parallel=True)
-def gather_vector_force_kernel(start, stop, offsets, neighbors, in_offsets, in_bonds, sources, volume, T, f):
-    """f_i += sum_{b out of i} T_b V_j - sum_{b into i} T_b V_src(b) for i in [start, stop): the
-    force density from vector force states (non-ordinary materials), both bond ends, gathered
-    per point. Shapes: volume (n,); T (nb, 3) force per volume squared; f (n, 3)."""
-    for i in prange(start, stop):
-        fx = 0.0
-        fy = 0.0
-        fz = 0.0
-        for b in range(offsets[i], offsets[i + 1]):
-            vj = volume[neighbors[b]]
-            fx += T[b, 0] * vj
-            fy += T[b, 1] * vj
-            fz += T[b, 2] * vj
-        for k in range(in_offsets[i], in_offsets[i + 1]):
-            b = in_bonds[k]
-            vj = volume[sources[b]]
-            fx -= T[b, 0] * vj
-            fy -= T[b, 1] * vj
-            fz -= T[b, 2] * vj
-        f[i, 0] += fx
-        f[i, 1] += fy
-        f[i, 2] += fz
-
-
 @njit(cache=True, parallel=True, error_model="numpy")
 def bond_length_kernel(n, offsets, neighbors, x, zeta):
     """zeta[b] = |x_j - x_i| for every bond b = i->j, as ((dx dx + dy dy) + dz dz)^(1/2)."""

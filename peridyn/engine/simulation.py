@@ -31,8 +31,8 @@ from .kernels import (
     critical_time_step_kernel,
     foreign_neighbor_kernel,
     gather_scalar_force_kernel,
-    gather_vector_force_kernel,
 )
+from ..core.bondmath import gather_vector_force_kernel
 
 log = logging.getLogger("peridyn.engine")
 

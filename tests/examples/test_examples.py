@@ -36,7 +36,7 @@ def run_example(name: str, tmp_path: Path, **changes) -> Path:
 
 def test_every_example_has_a_test():
     decks = sorted(p.stem for p in EXAMPLES.glob("*.yaml"))
-    assert decks == ["fragmenting_cylinder", "quickstart", "wave_in_bar"]
+    assert decks == ["disk_impact", "fragmenting_cylinder", "quickstart", "wave_in_bar"]
 
 
 def test_quickstart_plate_cracks_in_the_middle(tmp_path):

@@ -42,6 +42,7 @@ class Shrink:
     points: int = 6
     steps: int = 20
     load_steps: int = 2
+    spacing_factor: float = 4.0  #: generated shapes (Type: Shapes): lattice spacing and horizons times this
 
     def describe(self) -> str:
         return f"shrink(points<={self.points}, steps<={self.steps}, load steps<={self.load_steps})"
@@ -75,6 +76,16 @@ def shrink_tree(deck: DeckInfo, s: Shrink) -> dict:
                     gen[f"Number Points {axis}"] = s.points
                     if length is not None:
                         gen[f"{axis} Length"] = length * s.points / n
+    if isinstance(disc, dict) and isinstance(disc.get("Shapes"), dict):
+        # generated shapes: coarser lattices (node sets are the shapes themselves, so they stay)
+        for shape in disc["Shapes"].values():
+            h = _number(shape.get("Spacing")) if isinstance(shape, dict) else None
+            if h is not None and h > 0:
+                shape["Spacing"] = h * s.spacing_factor
+        for blk in (tree.get("Blocks") or {}).values():
+            hz = _number(blk.get("Horizon")) if isinstance(blk, dict) else None
+            if hz is not None:
+                blk["Horizon"] = hz * s.spacing_factor
     prev_end = None
     for name, sec in tree.items():
         if "Solver" not in name or not isinstance(sec, dict):

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from ...core.bondmath import gather_vector_force_kernel
 from ...core.fields import FieldSpec, Relation
 from ...core.interfaces import Compute
 from .forces import _hourglass_bond
@@ -28,8 +29,6 @@ class HourglassForceDensity(Compute):
         return [FieldSpec("Hourglass_Force_Density", Relation.NODE, 3)]
 
     def compute(self, sim):
-        from ...engine.kernels import gather_vector_force_kernel
-
         out = sim.fields["Hourglass_Force_Density"]
         out[:] = 0.0
         blocks = [blk for blk in sim.blocks if getattr(blk.material, "c1", 0.0) != 0.0]
