@@ -127,13 +127,13 @@ def _hourglass_bond(p, q, x, y, F, c1, delta):
     E0 = y[q, 0] - y[p, 0]
     E1 = y[q, 1] - y[p, 1]
     E2 = y[q, 2] - y[p, 2]
-    l = math.sqrt(E0 * E0 + E1 * E1 + E2 * E2)  # noqa: E741
+    length = math.sqrt(E0 * E0 + E1 * E1 + E2 * E2)
     h0 = (((y[p, 0] + F[p, 0] * X0) + F[p, 1] * X1) + F[p, 2] * X2) - y[q, 0]
     h1 = (((y[p, 1] + F[p, 3] * X0) + F[p, 4] * X1) + F[p, 5] * X2) - y[q, 1]
     h2 = (((y[p, 2] + F[p, 6] * X0) + F[p, 7] * X1) + F[p, 8] * X2) - y[q, 2]
     dot = (h0 * E0 + h1 * E1) + h2 * E2
     dot = dot * -1.0
-    M = (c * (dot / zeta)) * (1.0 / l)  # (1.0 - 0.0) c == c exactly
+    M = (c * (dot / zeta)) * (1.0 / length)  # (1.0 - 0.0) c == c exactly
     return M * E0, M * E1, M * E2
 
 

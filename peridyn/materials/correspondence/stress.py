@@ -72,7 +72,7 @@ def _dot9(a, b):
 @njit(cache=True, inline="always")
 def _floor(x):
     """std::max(1.0e-20, x)."""
-    return x if 1.0e-20 < x else 1.0e-20
+    return x if 1.0e-20 < x else 1.0e-20  # noqa: FURB136 (std::max's NaN behaviour, not max())
 
 
 @njit(cache=True, inline="always")
@@ -102,7 +102,7 @@ def _eqps_update(de, r, mag_tr, sN, G, eqps_N):
         (r[6] / mag_tr + q[6] / mq) / 2.0, (r[7] / mag_tr + q[7] / mq) / 2.0, (r[8] / mag_tr + q[8] / mq) / 2.0,
     )
     inc = SQRT_2_3 * _dot9(a, b)
-    return eqps_N + (inc if 0.0 < inc else 0.0)
+    return eqps_N + (inc if 0.0 < inc else 0.0)  # noqa: FURB136 (std::max's NaN behaviour)
 
 
 @njit(cache=True, inline="always")
