@@ -106,15 +106,34 @@ class ContactGhosts:
         horizon = np.concatenate([manager.horizon, ghosts[:, 10]])
         block = np.concatenate([manager.block, ghosts[:, 11].astype(np.int64)])
         gid = np.concatenate([manager.gid, ghosts[:, 12].astype(np.int64)])
-        from ..parallel.mpi import Halo
-
-        if self.halo is not None:
-            self.halo.free()
-        send_counts = np.array([idx.size for idx in send_index], dtype=np.int64)
-        recv_counts = np.array([a.shape[0] for a in received], dtype=np.int64)
-        self.halo = Halo(comm.comm, np.concatenate(send_index).astype(np.int64), send_counts, np.arange(n, m, dtype=np.int64), recv_counts, tag=CONTACT_TAG)
+        self._send_index = send_index
+        self._recv_counts = np.array([a.shape[0] for a in received], dtype=np.int64)
         xx = np.concatenate([fields["Model_Coordinates"][:n], ghosts[:, 13:16]])
         return ContactState(yy, vv, volume, horizon, block, gid, n), ss, xx
+
+    def keep(self, state: ContactState, used: np.ndarray) -> tuple[ContactState, np.ndarray]:
+        """Keep only the ghosts some pair lists (``used``: (n_ghosts,) bool), and plan the
+        per-step refresh of those: a ghost no pair lists now cannot come into contact before the
+        next build (it was farther than the build radius, or bonded). Returns the reduced state
+        and the new index of every old one (-1: dropped). Collective."""
+        from ..parallel.mpi import Halo
+
+        comm, n = self.comm, self.n_owned
+        bounds = np.concatenate([[0], np.cumsum(self._recv_counts)])
+        masks = [used[bounds[r]:bounds[r + 1]] for r in range(comm.size)]
+        theirs = comm.alltoall(masks)  # which of the points this rank sent each rank keeps
+        send_index = [idx[mask] for idx, mask in zip(self._send_index, theirs)]
+        recv_counts = np.array([int(mk.sum()) for mk in masks], dtype=np.int64)
+        rows = np.concatenate([np.arange(n), n + np.flatnonzero(used)]).astype(np.int64)
+        new_index = np.full(state.y.shape[0], -1, dtype=np.int64)
+        new_index[rows] = np.arange(rows.size)
+        m = rows.size
+        if self.halo is not None:
+            self.halo.free()
+        self.halo = Halo(comm.comm, np.concatenate(send_index).astype(np.int64), np.array([i.size for i in send_index], dtype=np.int64),
+                         np.arange(n, m, dtype=np.int64), recv_counts, tag=CONTACT_TAG)
+        st = ContactState(state.y[rows], state.v[rows], state.volume[rows], state.horizon[rows], state.block[rows], state.gid[rows], n, state.time)
+        return st, new_index
 
     def update(self, state: ContactState) -> None:
         """Copy the owned points' current positions and velocities into the state and refresh

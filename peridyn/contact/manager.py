@@ -155,8 +155,6 @@ class ContactManager:
         n = self.num_owned
         if self.ghosts is not None:
             state, s, x = self.ghosts.build(self, self.rb)
-            self.state = state
-            self.stats["ghosts"] = max(self.stats["ghosts"], state.y.shape[0] - n)
             near2 = np.concatenate([self.near2, (state.horizon[n:] * (1.0 - 1e-9)) ** 2 if self.near_rule else np.full(state.y.shape[0] - n, -1.0)])
         else:
             s, x, near2 = self.s, sim.fields["Model_Coordinates"], self.near2
@@ -165,6 +163,13 @@ class ContactManager:
             n, state.y, s, state.gid, self.rb, self.search_radius, sim.bonds, sim.gid, self.one_offsets, self.one_gid, self.capacity,
             shortcut=(x, near2, state.block, self.cross_block),
         )
+        if self.ghosts is not None:  # keep the ghosts some pair lists; refresh only those
+            used = np.zeros(state.y.shape[0] - n, dtype=bool)
+            used[partners[partners >= n] - n] = True
+            state, new_index = self.ghosts.keep(state, used)
+            partners = new_index[partners].astype(np.int32)
+            self.state = state
+            self.stats["ghosts"] = max(self.stats["ghosts"], state.y.shape[0] - n)
         self.stats["overflows"] += passes - 1
         largest = int(np.diff(offsets).max()) if n else 0
         self.capacity = max(16, cap if passes > 1 else min(cap, 2 * largest + 8))
