@@ -191,6 +191,9 @@ def _log_contact(c: dict, steps: int) -> None:
         c["searches"], c["builds"], 1e3 * c["build_time"] / builds, 1e3 * (c["force_time"] - c["build_time"]) / max(1, c["force_calls"]),
         c["pairs"], c["max_pairs"], f", {c['ghosts']} contact ghosts at most" if c.get("ghosts") else "",
     )
+    if c.get("sync_time"):
+        log.info("  contact: %.3g ms per step waiting for the other ranks in its collective check (the force evaluation's imbalance)",
+                 1e3 * c["sync_time"] / max(1, c["force_calls"]))
     if pen < 1.0:
         log.info("  contact: smallest pair distance %.4g = %.3g of the contact radius %.4g (penetration %.1f%%)",
                  c["min_distance"], pen, c["contact_radius"], 100.0 * max(0.0, 1.0 - pen))

@@ -88,7 +88,7 @@ class ContactManager:
         self.y_build: np.ndarray | None = None
         self.capacity = 16
         self.stats = {"searches": 1, "builds": 0, "build_time": 0.0, "force_time": 0.0, "force_calls": 0, "pairs": 0,
-                      "max_pairs": 0, "overflows": 0, "ghosts": 0, "min_distance": math.inf, "min_distance_time": math.nan}
+                      "max_pairs": 0, "overflows": 0, "ghosts": 0, "min_distance": math.inf, "min_distance_time": math.nan, "sync_time": 0.0}
         self._dt_stable: float | None = None
 
     # -- what the explicit solver calls ----------------------------------------------------------
@@ -146,7 +146,9 @@ class ContactManager:
             return True
         m = max_displacement2_kernel(state.y.shape[0], state.y, self.y_build)
         if self.ghosts is not None:
-            m = self.sim.comm.allreduce_max(m)
+            t0 = _time.perf_counter()
+            m = self.sim.comm.allreduce_max(m)  # waits for the slowest rank's force evaluation too
+            self.stats["sync_time"] += _time.perf_counter() - t0
         return not 2.0 * math.sqrt(m) < self.skin
 
     def _build(self, state: ContactState | None) -> ContactState:
@@ -248,7 +250,8 @@ class ContactManager:
         st["penetration"] = st["min_distance"] / self.rc if math.isfinite(st["min_distance"]) else math.inf
         st["contact_radius"] = self.rc
         st["build_time"] = comm.allreduce_max(float(st["build_time"]))
-        st["force_time"] = comm.allreduce_max(float(st["force_time"]))
+        st["force_time"] = comm.allreduce_max(float(st["force_time"]) - float(st["sync_time"]))
+        st["sync_time"] = comm.allreduce_max(float(st["sync_time"]))
         st["pairs"] = comm.allreduce_sum(int(st["pairs"]))
         st["max_pairs"] = comm.allreduce_sum(int(st["max_pairs"]))
         st["ghosts"] = comm.allreduce_sum(int(st["ghosts"]))

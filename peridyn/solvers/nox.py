@@ -622,6 +622,7 @@ class NOXRun:
             for k in range(1, len(times)):
                 t_prev, t_cur = t_cur, times[k]
                 self.dt = t_cur - t_prev
+                sim.set_time_step(self.dt)  # rate-form materials integrate over the load step
                 sim.time_prev, sim.time = t_prev, t_cur
                 du[:] = 0.0
                 guess = self.v[:n] * self.dt

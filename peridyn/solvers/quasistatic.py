@@ -332,6 +332,7 @@ class QuasiStaticRun:
                 retry = False
                 t_cur = times[step]
                 self.dt = t_cur - t_prev
+                sim.set_time_step(self.dt)  # rate-form materials integrate over the load step
                 sim.time_prev, sim.time = t_prev, t_cur
                 self.du[:] = 0.0
                 sim.apply_kinematic(t_cur, t_prev)

@@ -177,6 +177,31 @@ def local_force_kernel(i, offsets, neighbors, y, volume, t, out):
 
 
 @njit(cache=True)
+def local_vector_force_kernel(i, offsets, neighbors, volume, T, out):
+    """``local_force_kernel`` for vector force states T (nb, 3) of i's bonds: f_i = sum T_b V_j,
+    f_j = -T_b V_i on S_i = [N_i..., i]."""
+    o = offsets[i]
+    ns = offsets[i + 1] - o + 1
+    fx = 0.0
+    fy = 0.0
+    fz = 0.0
+    Vi = volume[i]
+    for b in range(o, offsets[i + 1]):
+        j = neighbors[b]
+        k = 3 * (b - o)
+        out[k] = -T[b, 0] * Vi
+        out[k + 1] = -T[b, 1] * Vi
+        out[k + 2] = -T[b, 2] * Vi
+        fx += T[b, 0] * volume[j]
+        fy += T[b, 1] * volume[j]
+        fz += T[b, 2] * volume[j]
+    k = 3 * (ns - 1)
+    out[k] = fx
+    out[k + 1] = fy
+    out[k + 2] = fz
+
+
+@njit(cache=True)
 def damp_diagonal_kernel(data, diag_pos, scale, shift):
     """Peridigm's quasiStaticsDampTangent: d = diag * scale (per entry), then d += shift * max|d|,
     written back to the diagonal."""
@@ -294,6 +319,7 @@ class TangentMatrix:
         self.assembly_time = 0.0
         self.assemblies = 0
         self._fd_scratch = None
+        self._fd_scratch_vector = None
 
     # -- pattern --------------------------------------------------------------------------------
     def _pattern(self, pairs_only: bool) -> tuple[np.ndarray, np.ndarray]:
@@ -399,9 +425,24 @@ class TangentMatrix:
         nl = sim.bonds
         y = s["Coordinates"]
         volume = s["Volume"]
-        if self._fd_scratch is None:
-            self._fd_scratch = np.zeros(nl.num_bonds)
-        t = self._fd_scratch
+        vector = mat.force_state_kind == "vector"
+        if vector:
+            if self._fd_scratch_vector is None:
+                self._fd_scratch_vector = np.zeros((nl.num_bonds, 3))
+            t = self._fd_scratch_vector
+        else:
+            if self._fd_scratch is None:
+                self._fd_scratch = np.zeros(nl.num_bonds)
+            t = self._fd_scratch
+        # rate-form materials: Peridigm's probe moves the velocity by eps/dt with the position
+        v = s["Velocity"] if getattr(mat, "tangent_perturbs_velocity", False) else None
+        dv = eps / view.time_step if v is not None and view.time_step > 0 else 0.0
+
+        def local(out):
+            if vector:
+                local_vector_force_kernel(i, nl.offsets, nl.neighbors, volume, t, out)
+            else:
+                local_force_kernel(i, nl.offsets, nl.neighbors, y, volume, t, out)
         pts = np.arange(blk.start, blk.stop)
         pts = pts[np.argsort(self.eval_rank[pts], kind="stable")]
         for i in pts:
@@ -418,15 +459,22 @@ class TangentMatrix:
                 q = int(S[a])
                 for c in range(3):
                     orig = y[q, c]
+                    vorig = v[q, c] if v is not None else 0.0
                     y[q, c] = orig - eps
+                    if v is not None:
+                        v[q, c] = vorig - dv
                     mat.precompute(vi)
                     mat.force_state(vi, t)
-                    local_force_kernel(i, nl.offsets, nl.neighbors, y, volume, t, Fm)
+                    local(Fm)
                     y[q, c] = orig + eps
+                    if v is not None:
+                        v[q, c] = vorig + dv
                     mat.precompute(vi)
                     mat.force_state(vi, t)
-                    local_force_kernel(i, nl.offsets, nl.neighbors, y, volume, t, Fp)
+                    local(Fp)
                     y[q, c] = orig
+                    if v is not None:
+                        v[q, c] = vorig
                     Kloc[:, 3 * a + c] = (((Fp - Fm) / eps) * 0.5) * Vs
             mat.precompute(vi)  # leave point i's state as at the unperturbed configuration
             keep = S < self.nrows

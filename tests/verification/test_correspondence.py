@@ -106,3 +106,37 @@ def test_uniaxial_strain_follows_the_closed_form_j2_curve(tmp_path, H):
     np.testing.assert_allclose(q.mean(axis=1), expect_q, rtol=2e-2)
     np.testing.assert_allclose(eqps.mean(axis=1), ep, atol=2e-2 * e_total)
     assert eqps[-1].min() > 0.5 * ep[-1]
+
+
+def test_quasi_static_tension_recovers_youngs_modulus(tmp_path):
+    """A bar pulled by its grips, solved quasi-statically (Peridigm's finite-difference tangent,
+    positions and velocities probed): the axial Cauchy stress in the middle over the strain
+    there is Young's modulus E = 9 K G / (3 K + G)."""
+    h = 1e-3
+    grips = {
+        "Left": {"Shape": "Box", "Block": "block_1", "Min": [0.0, 0.0, 0.0], "Max": [2 * h, 4 * h, 4 * h], "Spacing": h},
+        "Middle": {"Shape": "Box", "Block": "block_1", "Min": [2 * h, 0.0, 0.0], "Max": [14 * h, 4 * h, 4 * h], "Spacing": h},
+        "Right": {"Shape": "Box", "Block": "block_1", "Min": [14 * h, 0.0, 0.0], "Max": [16 * h, 4 * h, 4 * h], "Spacing": h},
+    }
+    pull = 1e-3 * 16 * h
+    method = {"Number of Load Steps": 2, "Relative Tolerance": 1e-8, "Maximum Solver Iterations": 20}
+    tree = {
+        "Discretization": {"Type": "Shapes", "Shapes": grips},
+        "Materials": {"M": {"Material Model": "Elastic Correspondence", "Density": 7800.0, "Bulk Modulus": K, "Shear Modulus": G, "Hourglass Coefficient": 0.02}},
+        "Blocks": {"B": {"Block Names": "block_1", "Material": "M", "Horizon": 3.015 * h}},
+        "Boundary Conditions": {
+            "Fix": {"Type": "Prescribed Displacement", "Node Set": "Left", "Coordinate": "x", "Value": "0.0"},
+            "Pull": {"Type": "Prescribed Displacement", "Node Set": "Right", "Coordinate": "x", "Value": f"{pull!r}*t"},
+        },
+        "Solver": {"Initial Time": 0.0, "Final Time": 1.0, "QuasiStatic": method},
+        "Output": {"Output Filename": "run", "Output Frequency": 1, "Output Variables": {"Displacement": True, "Cauchy_Stress": True}},
+    }
+    with run(tmp_path, tree) as ds:
+        sigma = tensor(ds, "Cauchy_Stress")[-1]
+        x = ds["coordx"][:].data
+        ux = ds["vals_nod_var1"][-1].data
+    middle = (x > 6 * h) & (x < 10 * h)
+    strain = np.polyfit(x[middle], ux[middle], 1)[0]
+    E = 9 * K * G / (3 * K + G)
+    assert strain > 0
+    assert sigma[middle, 0, 0].mean() / strain == pytest.approx(E, rel=0.1)

@@ -56,6 +56,7 @@ class ClassicCorrespondence(Material):
     Params: ClassVar[type] = P.ClassicParams
     force_state_kind = "vector"
     ghost_inputs = ("Velocity",)  # the velocity gradient reads the neighbors' velocities
+    tangent_perturbs_velocity = True  # Peridigm's finite-difference probe moves v by eps/dt too
     plastic: ClassVar[bool] = False
 
     def __init__(self, params, *, horizon: float | None, options: dict[str, Any] | None = None) -> None:
