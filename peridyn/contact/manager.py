@@ -42,6 +42,13 @@ class ContactManager:
         mentry = entry.model
         self.model = mentry.cls(mentry.params, options={"deck_dir": sim.deck.directory, "path": mentry.path})
         self.rc = float(self.model.contact_radius)
+        largest = max(float(blk.horizon) for blk in sim.blocks if blk.horizon is not None) if sim.blocks else 0.0
+        if largest > 0 and self.rc > 100.0 * largest:
+            raise InputError(
+                f"the contact radius {self.rc:.4g} is more than 100 times the largest horizon {largest:.4g}",
+                file=sim.deck.file, path=tuple(mentry.path) + ("Contact Radius",),
+                fix="give a contact radius of the order of the point spacing (a fraction of the horizon)",
+            )
         if self.search_radius <= self.rc:
             log.warning("%s: Contact > Search Radius %.4g is not larger than the Contact Radius %.4g: pairs that come into contact "
                         "between two searches are missed; give a search radius of a few contact radii", sim.deck.file, self.search_radius, self.rc)
@@ -213,7 +220,7 @@ class ContactManager:
         partner = np.empty(n)
         partner_volume_kernel(n, sim.bonds.offsets, sim.bonds.neighbors, sim.fields["Bond_Length"], vol, self.rc, partner)
         # a partner body pressed into the whole ball of radius R_c (deep contact)
-        np.maximum(partner, (4.0 / 3.0) * math.pi * self.rc**3, out=partner)
+        np.maximum(partner, (4.0 / 3.0) * np.pi * np.float64(self.rc) ** 3, out=partner)
         with np.errstate(all="ignore"):
             bond_part = np.where(np.isfinite(dt_bonds), 2.0 * rho / (dt_bonds * dt_bonds), 0.0)
             dt = np.sqrt(2.0 * rho / (bond_part + stiffness * partner))
