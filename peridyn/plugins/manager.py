@@ -122,7 +122,13 @@ class Registry:
                               fix="remove the entry, or install a plugin that provides it")
         close = difflib.get_close_matches(str(name), available, n=3, cutoff=0.5)
         hint = f"did you mean {' or '.join(repr(c) for c in close)}? " if close else ""
-        fix = f"{hint}available: {', '.join(sorted(available))}"
+        names = sorted(available)
+        if len(names) <= 6:
+            fix = f"{hint}available: {', '.join(names)}"
+        elif hint:
+            fix = f"{hint}('peridyn plugins' lists all {len(names)})"
+        else:
+            fix = f"available: {', '.join(names[:4])}, ... ({len(names)} in all; 'peridyn plugins' lists them)"
         if self.failed:
             fix += "; plugins that failed to import: " + ", ".join(f"{p} ({e})" for p, e in self.failed.items())
         return InputError(f"unknown {human} {name!r}", file=file, path=path, fix=fix)
