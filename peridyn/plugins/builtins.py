@@ -57,6 +57,12 @@ def peridyn_materials():
         ("Elastic Plastic Correspondence", "peridyn.materials.correspondence.classic:ElasticPlasticCorrespondence"),
         ("Isotropic Hardening Correspondence", "peridyn.materials.correspondence.classic:IsotropicHardeningCorrespondence"),
         ("Viscoplastic Needleman Correspondence", "peridyn.materials.correspondence.classic:ViscoplasticNeedlemanCorrespondence"),
+        ("Elastic Hypoelastic Correspondence", "peridyn.materials.correspondence.hypoelastic:ElasticHypoelasticCorrespondence"),
+        ("Elastic Plastic Hypoelastic Correspondence", "peridyn.materials.correspondence.hypoelastic:ElasticPlasticHypoelasticCorrespondence"),
+        ("Isotropic Hardening Hypoelastic Correspondence", "peridyn.materials.correspondence.hypoelastic:IsotropicHardeningHypoelasticCorrespondence"),
+        ("Elastic Bond Associated Correspondence", "peridyn.materials.correspondence.bond_associated:ElasticBondAssociatedCorrespondence"),
+        ("Elastic Plastic Bond Associated Correspondence", "peridyn.materials.correspondence.bond_associated:ElasticPlasticBondAssociatedCorrespondence"),
+        ("Isotropic Hardening Bond Associated Correspondence", "peridyn.materials.correspondence.bond_associated:IsotropicHardeningBondAssociatedCorrespondence"),
     ]
 
 

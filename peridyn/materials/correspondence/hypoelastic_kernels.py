@@ -1,0 +1,652 @@
+"""Numerical core of Peridigm's hypoelastic correspondence family (PERIDIGM_CORRESPONDENCE.md §8,
+§5.2/§5.3/§5.6 at node and bond level), one point per ``prange`` iteration, gather only.
+
+Eulerian formulation: every evaluation builds the gradient weights on the current configuration
+(bond vector η = y_j - y_i, deformed length l = sqrt((ηx ηx + ηy ηy) + ηz ηz)), with volumes
+V'_j = J_N,j V_j scaled by the Jacobian of step N, the influence function ω(l, δ) at the deformed
+length and the point's Horizon field δ (= ``Actual Horizon``), and bond damage d of step N.
+
+Shapes and units of the kernel arguments:
+
+* ``offsets`` (n+1,) int64 and ``neighbors`` (nb,) int32: the CSR bond lists (list order);
+* ``y`` (n, 3) current positions (NP1 Coordinates, L); ``v`` (n, 3) NP1 velocities (L/T);
+  ``volume`` (n,) (L^3); ``horizon`` (n,) the Horizon field δ (L); ``J_N`` (n,) the
+  Jacobian_Determinant of step N (-); ``bond_damage`` (nb,) the N-step Bond_Damage (any real
+  dtype) or an empty array (no damage model: d = 0);
+* ``omega_kind``/``omega_table`` as in :func:`peridyn.core.influence.omega`; for an expression
+  influence function the table holds ω(l_b, δ) at the deformed lengths of the block's bonds,
+  indexed b - b0 with b0 = offsets[start] (an empty table otherwise);
+* per-point tensors (n, 9) flat row-major: Velocity_Gradient L (1/T), Left_Stretch_Tensor V (-),
+  Rotation_Tensor R (-), Unrotated_Rate_Of_Deformation d (1/T), stresses (M/(L T^2));
+* per-bond fields: ``phi`` (nb, 3) the gradient weights (1/L^4 per unit volume: Σ_j Δv φ V'_j
+  is a velocity gradient), bond tensors (nb, 9), bond equivalent plastic strain (nb,);
+* ``T`` (nb, 3): the vector force state of every bond (force per volume squared).
+
+Every operation follows the spec's (and Peridigm's source) order: left-to-right sums from 0.0 in
+bond-list order, no fused multiply-add.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from ...core.influence import omega
+from .stress import (
+    _deviator,
+    _dot9,
+    _eqps_update,
+    _floor,
+    _return_to,
+    _strain_increment,
+    _trial_stress,
+)
+from .tensor import flanagan_taylor, load9, matmul, matmul_nt, matmul_tn, store9
+
+SQRT_2_3 = math.sqrt(2.0 / 3.0)
+SQRT_6 = math.sqrt(6.0)
+
+#: stress models (§5.8): node and bond level use the same routine
+ELASTIC, PERFECTLY_PLASTIC, POWER_LAW = 0, 1, 2
+
+
+# ------------------------------------------------------------------------------------------------
+# §8.2 step 3: Numerical Recipes' SVD (``dsvd`` of correspondence.cxx) and the pseudo-inverse
+# ------------------------------------------------------------------------------------------------
+@njit(cache=True, inline="always")
+def _sign(a, b):
+    """SIGN(a, b) = |a| if b >= 0.0 else -|a|."""
+    return abs(a) if b >= 0.0 else -abs(a)
+
+
+@njit(cache=True, inline="always")
+def _pythag(a, b):
+    """sqrt(a² + b²) without destructive underflow or overflow (``PYTHAG``)."""
+    at = abs(a)
+    bt = abs(b)
+    if at > bt:
+        ct = bt / at
+        return at * math.sqrt(1.0 + ct * ct)
+    if bt > 0.0:
+        ct = at / bt
+        return bt * math.sqrt(1.0 + ct * ct)
+    return 0.0
+
+
+@njit(cache=True, error_model="numpy")
+def dsvd(a, m, n, w, v, rv1):
+    """Golub-Reinsch SVD A = U diag(w) Vᵀ of the m x n row-major ``a`` (m >= n), in place: U
+    overwrites ``a``, w (n,) the singular values (unsorted, >= 0), V (n x n row-major) into ``v``;
+    ``rv1`` (n,) is scratch. A line-by-line port of Peridigm's ``dsvd`` (Householder
+    bidiagonalisation, then implicit-shift QR sweeps, at most 30 per value), including its
+    deviations from the printed Numerical Recipes routine (no rv1[i] = c rv1[i] and no break in
+    the cancellation loop). Returns False when a value did not converge in 30 sweeps (Peridigm
+    goes on silently with what it has), else True."""
+    anorm = 0.0
+    g = 0.0
+    scale = 0.0
+    s = 0.0
+    f = 0.0
+    h = 0.0
+    c = 0.0
+    x = 0.0
+    y = 0.0
+    z = 0.0
+    l = 0
+    nm = 0
+    # Householder reduction to bidiagonal form
+    for i in range(n):
+        l = i + 1
+        rv1[i] = scale * g
+        g = 0.0
+        s = 0.0
+        scale = 0.0
+        if i < m:
+            for k in range(i, m):
+                scale += abs(a[k * n + i])
+            if scale != 0.0:
+                for k in range(i, m):
+                    a[k * n + i] = a[k * n + i] / scale
+                    s += a[k * n + i] * a[k * n + i]
+                f = a[i * n + i]
+                g = -_sign(math.sqrt(s), f)
+                h = f * g - s
+                a[i * n + i] = f - g
+                if i != n - 1:
+                    for j in range(l, n):
+                        s = 0.0
+                        for k in range(i, m):
+                            s += a[k * n + i] * a[k * n + j]
+                        f = s / h
+                        for k in range(i, m):
+                            a[k * n + j] += f * a[k * n + i]
+                for k in range(i, m):
+                    a[k * n + i] = a[k * n + i] * scale
+        w[i] = scale * g
+        g = 0.0
+        s = 0.0
+        scale = 0.0
+        if i < m and i != n - 1:
+            for k in range(l, n):
+                scale += abs(a[i * n + k])
+            if scale != 0.0:
+                for k in range(l, n):
+                    a[i * n + k] = a[i * n + k] / scale
+                    s += a[i * n + k] * a[i * n + k]
+                f = a[i * n + l]
+                g = -_sign(math.sqrt(s), f)
+                h = f * g - s
+                a[i * n + l] = f - g
+                for k in range(l, n):
+                    rv1[k] = a[i * n + k] / h
+                if i != m - 1:
+                    for j in range(l, m):
+                        s = 0.0
+                        for k in range(l, n):
+                            s += a[j * n + k] * a[i * n + k]
+                        for k in range(l, n):
+                            a[j * n + k] += s * rv1[k]
+                for k in range(l, n):
+                    a[i * n + k] = a[i * n + k] * scale
+        t = abs(w[i]) + abs(rv1[i])
+        anorm = max(anorm, t)  # fmax
+    # accumulate the right-hand transformation
+    for i in range(n - 1, -1, -1):
+        if i < n - 1:
+            if g != 0.0:
+                for j in range(l, n):
+                    v[j * n + i] = (a[i * n + j] / a[i * n + l]) / g  # double division against underflow
+                for j in range(l, n):
+                    s = 0.0
+                    for k in range(l, n):
+                        s += a[i * n + k] * v[k * n + j]
+                    for k in range(l, n):
+                        v[k * n + j] += s * v[k * n + i]
+            for j in range(l, n):
+                v[i * n + j] = 0.0
+                v[j * n + i] = 0.0
+        v[i * n + i] = 1.0
+        g = rv1[i]
+        l = i
+    # accumulate the left-hand transformation
+    for i in range(n - 1, -1, -1):
+        l = i + 1
+        g = w[i]
+        if i < n - 1:
+            for j in range(l, n):
+                a[i * n + j] = 0.0
+        if g != 0.0:
+            g = 1.0 / g
+            if i != n - 1:
+                for j in range(l, n):
+                    s = 0.0
+                    for k in range(l, m):
+                        s += a[k * n + i] * a[k * n + j]
+                    f = (s / a[i * n + i]) * g
+                    for k in range(i, m):
+                        a[k * n + j] += f * a[k * n + i]
+            for j in range(i, m):
+                a[j * n + i] = a[j * n + i] * g
+        else:
+            for j in range(i, m):
+                a[j * n + i] = 0.0
+        a[i * n + i] += 1.0
+    # diagonalise the bidiagonal form
+    converged = True
+    for k in range(n - 1, -1, -1):
+        done = False
+        for _its in range(30):
+            flag = True
+            l = k
+            while l >= 0:  # test for splitting (rv1[0] == 0 always stops it)
+                nm = l - 1
+                if abs(rv1[l]) + anorm == anorm:
+                    flag = False
+                    break
+                if abs(w[nm]) + anorm == anorm:
+                    break
+                l -= 1
+            if flag:  # cancellation of rv1[l]
+                s = 1.0
+                for i in range(l, k + 1):
+                    f = s * rv1[i]
+                    if abs(f) + anorm != anorm:
+                        g = w[i]
+                        h = _pythag(f, g)
+                        w[i] = h
+                        h = 1.0 / h
+                        c = g * h
+                        s = -f * h
+                        for j in range(m):
+                            y = a[j * n + nm]
+                            z = a[j * n + i]
+                            a[j * n + nm] = y * c + z * s
+                            a[j * n + i] = z * c - y * s
+            z = w[k]
+            if l == k:  # convergence: make the singular value non-negative
+                if z < 0.0:
+                    w[k] = -z
+                    for j in range(n):
+                        v[j * n + k] = -v[j * n + k]
+                done = True
+                break
+            # shift from the bottom 2 x 2 minor
+            x = w[l]
+            nm = k - 1
+            y = w[nm]
+            g = rv1[nm]
+            h = rv1[k]
+            f = ((y - z) * (y + z) + (g - h) * (g + h)) / (2.0 * h * y)
+            g = _pythag(f, 1.0)
+            f = ((x - z) * (x + z) + h * ((y / (f + _sign(g, f))) - h)) / x
+            # next QR transformation
+            c = 1.0
+            s = 1.0
+            for j in range(l, nm + 1):
+                i = j + 1
+                g = rv1[i]
+                y = w[i]
+                h = s * g
+                g = c * g
+                z = _pythag(f, h)
+                rv1[j] = z
+                c = f / z
+                s = h / z
+                f = x * c + g * s
+                g = g * c - x * s
+                h = y * s
+                y = y * c
+                for jj in range(n):
+                    x = v[jj * n + j]
+                    z = v[jj * n + i]
+                    v[jj * n + j] = x * c + z * s
+                    v[jj * n + i] = z * c - x * s
+                z = _pythag(f, h)
+                w[j] = z
+                if z != 0.0:
+                    z = 1.0 / z
+                    c = f * z
+                    s = h * z
+                f = (c * g) + (s * y)
+                x = (c * y) - (s * g)
+                for jj in range(m):
+                    y = a[jj * n + j]
+                    z = a[jj * n + i]
+                    a[jj * n + j] = y * c + z * s
+                    a[jj * n + i] = z * c - y * s
+            rv1[l] = 0.0
+            rv1[k] = f
+            w[k] = x
+        if not done:
+            converged = False
+    return converged
+
+
+@njit(cache=True, error_model="numpy")
+def pseudo_inverse(M, n, threshold, out):
+    """``invertAndCond``: M⁺ (n x n row-major, into ``out``) of the n x n row-major M by
+    :func:`dsvd`, M⁺_rc = Σ_{k: w_k > threshold} ((V_rk 1.0)/w_k) U_ck, k ascending from 0.0.
+    Never fails: directions with w_k <= threshold are dropped. Returns the SVD's convergence flag."""
+    u = M.copy()
+    w = np.zeros(n)
+    v = np.zeros(n * n)
+    rv1 = np.zeros(n)
+    ok = dsvd(u, n, n, w, v, rv1)
+    for r in range(n):
+        for c in range(n):
+            acc = 0.0
+            for k in range(n):
+                if w[k] > threshold:
+                    acc += ((v[r * n + k] * 1.0) / w[k]) * u[c * n + k]
+            out[r * n + c] = acc
+    return ok
+
+
+# ------------------------------------------------------------------------------------------------
+# §8.3 precompute: weighted volumes, gradient weights, velocity gradient, Jacobian
+# ------------------------------------------------------------------------------------------------
+@njit(cache=True, inline="always")
+def _damage(bond_damage, b):
+    return float(bond_damage[b]) if bond_damage.shape[0] > 0 else 0.0
+
+
+@njit(cache=True, inline="always")
+def _bond(i, j, y):
+    """(ηx, ηy, ηz, l) with l = sqrt((ηx ηx + ηy ηy) + ηz ηz)."""
+    e0 = y[j, 0] - y[i, 0]
+    e1 = y[j, 1] - y[i, 1]
+    e2 = y[j, 2] - y[i, 2]
+    return e0, e1, e2, math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+
+
+@njit(cache=True, error_model="numpy")
+def precompute_point(i, offsets, neighbors, y, v, volume, horizon, J_N, bond_damage, omega_kind, omega_table, b0, dt,
+                     phi, L, J_NP1, m0, weighted_volume):
+    """§8.3 for point i: Weighted_Volume (when ``weighted_volume`` is non-empty), the gradient
+    weights φ of i's bonds (order 1: Q = η/δ, M = Σ (ω(1-d) V'_j) Q⊗Q, M⁺ with threshold
+    ((1e-6 δ) δ) δ, φ_r = Σ_c (((1.0 ω(1-d)) M⁺_rc) Q_c)/δ), L_i = Σ (Δv ⊗ φ) V'_j, J_NP1 =
+    J_N,i (1.0 + ((L0 + L4) + L8) dt) and the Undamaged_Weighted_Volume m0_i = Σ ω V'_j.
+    Returns 1 when the SVD did not converge (Peridigm goes on), else 0."""
+    delta = horizon[i]
+    lo = offsets[i]
+    hi = offsets[i + 1]
+    wv = 0.0
+    M = np.zeros(9)
+    for b in range(lo, hi):
+        j = neighbors[b]
+        e0, e1, e2, length = _bond(i, j, y)
+        vj = J_N[j] * volume[j]
+        om = omega(omega_kind, length, delta, omega_table, b - b0)
+        d = _damage(bond_damage, b)
+        wv += ((1.0 - d) * om) * vj
+        temp = (om * (1.0 - d)) * vj
+        q0 = e0 / delta
+        q1 = e1 / delta
+        q2 = e2 / delta
+        M[0] += (temp * q0) * q0
+        M[1] += (temp * q0) * q1
+        M[2] += (temp * q0) * q2
+        M[3] += (temp * q1) * q0
+        M[4] += (temp * q1) * q1
+        M[5] += (temp * q1) * q2
+        M[6] += (temp * q2) * q0
+        M[7] += (temp * q2) * q1
+        M[8] += (temp * q2) * q2
+    if weighted_volume.shape[0] > 0:
+        weighted_volume[i] = wv
+    Mi = np.zeros(9)
+    ok = pseudo_inverse(M, 3, ((1.0e-6 * delta) * delta) * delta, Mi)
+    L0 = L1 = L2 = L3 = L4 = L5 = L6 = L7 = L8 = 0.0
+    w0 = 0.0
+    vi0 = v[i, 0]
+    vi1 = v[i, 1]
+    vi2 = v[i, 2]
+    for b in range(lo, hi):
+        j = neighbors[b]
+        e0, e1, e2, length = _bond(i, j, y)
+        om = omega(omega_kind, length, delta, omega_table, b - b0)
+        temp = 1.0 * (om * (1.0 - _damage(bond_damage, b)))
+        q0 = e0 / delta
+        q1 = e1 / delta
+        q2 = e2 / delta
+        p0 = ((((0.0 + ((temp * Mi[0]) * q0) / delta) + ((temp * Mi[1]) * q1) / delta)) + ((temp * Mi[2]) * q2) / delta)
+        p1 = ((((0.0 + ((temp * Mi[3]) * q0) / delta) + ((temp * Mi[4]) * q1) / delta)) + ((temp * Mi[5]) * q2) / delta)
+        p2 = ((((0.0 + ((temp * Mi[6]) * q0) / delta) + ((temp * Mi[7]) * q1) / delta)) + ((temp * Mi[8]) * q2) / delta)
+        phi[b, 0] = p0
+        phi[b, 1] = p1
+        phi[b, 2] = p2
+        vj = J_N[j] * volume[j]
+        u0 = v[j, 0] - vi0
+        u1 = v[j, 1] - vi1
+        u2 = v[j, 2] - vi2
+        L0 += (u0 * p0) * vj
+        L1 += (u0 * p1) * vj
+        L2 += (u0 * p2) * vj
+        L3 += (u1 * p0) * vj
+        L4 += (u1 * p1) * vj
+        L5 += (u1 * p2) * vj
+        L6 += (u2 * p0) * vj
+        L7 += (u2 * p1) * vj
+        L8 += (u2 * p2) * vj
+        w0 += om * vj
+    store9(L, i, (L0, L1, L2, L3, L4, L5, L6, L7, L8))
+    J_NP1[i] = J_N[i] * (1.0 + ((L0 + L4) + L8) * dt)
+    m0[i] = w0
+    return 0 if ok else 1
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def precompute_kernel(start, stop, offsets, neighbors, y, v, volume, horizon, J_N, bond_damage, omega_kind, omega_table, dt,
+                      phi, L, J_NP1, m0, weighted_volume):
+    """§8.3 for the points [start, stop) (see :func:`precompute_point`). Writes φ (nb, 3) of their
+    bonds, L (n, 9), J_NP1 (n,), m0 (n,) and, when non-empty, weighted_volume (n,). Returns the
+    number of points whose SVD did not converge in 30 sweeps per value."""
+    bad = np.zeros(max(stop - start, 0), dtype=np.int8)
+    b0 = offsets[start] if stop > start else 0
+    for i in prange(start, stop):
+        bad[i - start] = precompute_point(i, offsets, neighbors, y, v, volume, horizon, J_N, bond_damage, omega_kind, omega_table,
+                                          b0, dt, phi, L, J_NP1, m0, weighted_volume)
+    count = 0
+    for k in range(bad.shape[0]):
+        count += bad[k]
+    return count
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def deformed_lengths_kernel(start, stop, offsets, neighbors, y, out):
+    """l_b = sqrt((ηx ηx + ηy ηy) + ηz ηz) of the bonds of [start, stop) into out[b - offsets[start]]
+    (for expression influence functions, evaluated at the deformed length)."""
+    b0 = offsets[start] if stop > start else 0
+    for i in prange(start, stop):
+        for b in range(offsets[i], offsets[i + 1]):
+            j = neighbors[b]
+            e0 = y[j, 0] - y[i, 0]
+            e1 = y[j, 1] - y[i, 1]
+            e2 = y[j, 2] - y[i, 2]
+            out[b - b0] = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+
+
+# ------------------------------------------------------------------------------------------------
+# §5.2/§5.3/§5.6: the stress updates with von Mises stress and triaxiality
+# ------------------------------------------------------------------------------------------------
+@njit(cache=True, inline="always")
+def _powerlaw_slope(e, sy, ec, n):
+    """H(e) = ((σ_y n)/ε_c) pow(1.0 + e/ε_c, n - 1.0)."""
+    return ((sy * n) / ec) * math.pow(1.0 + e / ec, n - 1.0)
+
+
+@njit(cache=True, error_model="numpy")
+def stress_update(model, sN, di, eqps_n, dt, K, G, sy, ec, nexp, bond):
+    """One unrotated stress update: (σ̂_NP1, eqps_NP1, vm, triaxiality, triaxiality_written).
+
+    model ELASTIC: §5.2 (trial stress, vm of the trial deviator); PERFECTLY_PLASTIC: §5.3 with
+    the strict test vm > σ_y and (5.3a), triaxiality ((σ0 + σ4) + σ8)/(3.0 max(1e-20, vm))
+    always; POWER_LAW: §5.6, σ_y (1 + eqps/ε_c)^n with the averaged-slope Δλ; elastic when
+    vm < f0 (strict, triaxiality not written at node level). Peridigm's bond-level routine
+    (``bond`` True) returns to f without the node level's second test vm > f. sN: σ̂_N 9-tuple,
+    di: d 9-tuple (1/T), eqps_n (-), dt (T), K, G, σ_y (M/(L T^2)), ε_c, n (-)."""
+    de, dth = _strain_increment(di, dt)
+    sig = _trial_stress(sN, de, dth, K, G)
+    s, p = _deviator(sig)
+    t = _dot9(s, s)
+    vm = math.sqrt((3.0 / 2.0) * t)
+    e = eqps_n
+    if model == ELASTIC:
+        return sig, e, vm, 0.0, False
+    if model == PERFECTLY_PLASTIC:
+        if vm > sy:
+            mag_tr = _floor(math.sqrt(t))
+            sig, r, vm = _return_to(s, p, mag_tr, sy)
+            e = _eqps_update(de, r, mag_tr, sN, G, eqps_n)
+        return sig, e, vm, ((sig[0] + sig[4]) + sig[8]) / (3.0 * _floor(vm)), True
+    # POWER_LAW
+    mag_tr = _floor(math.sqrt(t))
+    f0 = sy * math.pow(1.0 + eqps_n / ec, nexp)
+    if vm < f0:
+        return sig, e, vm, 0.0, bond
+    ebar = _dot9(s, de) / mag_tr
+    q, _ = _deviator(sN)
+    mq = math.sqrt(_dot9(q, q))  # no 1e-20 floor here
+    hN = _powerlaw_slope(eqps_n, sy, ec, nexp)
+    dlam = ((((6.0 * ebar) * G) - SQRT_6 * f0) + 3.0 * mq) / (2.0 * (hN + 3.0 * G))
+    e1 = eqps_n + SQRT_2_3 * dlam
+    H = 0.5 * (hN + _powerlaw_slope(e1, sy, ec, nexp))
+    dlam = ((((6.0 * ebar) * G) - SQRT_6 * f0) + 3.0 * mq) / (2.0 * (H + 3.0 * G))
+    e1 = eqps_n + SQRT_2_3 * dlam
+    f = sy * math.pow(1.0 + e1 / ec, nexp)
+    if bond or vm > f:
+        sig, r, vm = _return_to(s, p, mag_tr, f)
+        e = _eqps_update(de, r, mag_tr, sN, G, eqps_n)
+    return sig, e, vm, ((sig[0] + sig[4]) + sig[8]) / (3.0 * _floor(vm)), True
+
+
+# ------------------------------------------------------------------------------------------------
+# §8.4 computeForce: bond kinematics, bond stresses, non-homogeneity integral, force states
+# ------------------------------------------------------------------------------------------------
+@njit(cache=True, inline="always")
+def _bond_velocity_gradient(Li, Lj, e0, e1, e2, lsq, u0, u1, u2):
+    """L_b = L̄ + ((Δv - L̄ η) ⊗ η)/|η|², L̄ = 0.5 (L_i + L_j), |η|² = l·l."""
+    m0 = 0.5 * (Li[0] + Lj[0])
+    m1 = 0.5 * (Li[1] + Lj[1])
+    m2 = 0.5 * (Li[2] + Lj[2])
+    m3 = 0.5 * (Li[3] + Lj[3])
+    m4 = 0.5 * (Li[4] + Lj[4])
+    m5 = 0.5 * (Li[5] + Lj[5])
+    m6 = 0.5 * (Li[6] + Lj[6])
+    m7 = 0.5 * (Li[7] + Lj[7])
+    m8 = 0.5 * (Li[8] + Lj[8])
+    a0 = u0 - ((m0 * e0 + m1 * e1) + m2 * e2)
+    a1 = u1 - ((m3 * e0 + m4 * e1) + m5 * e2)
+    a2 = u2 - ((m6 * e0 + m7 * e1) + m8 * e2)
+    return (
+        m0 + (a0 * e0) / lsq, m1 + (a0 * e1) / lsq, m2 + (a0 * e2) / lsq,
+        m3 + (a1 * e0) / lsq, m4 + (a1 * e1) / lsq, m5 + (a1 * e2) / lsq,
+        m6 + (a2 * e0) / lsq, m7 + (a2 * e1) / lsq, m8 + (a2 * e2) / lsq,
+    )
+
+
+@njit(cache=True, inline="always")
+def _projector(e0, e1, e2, lsq):
+    """P⊥ = I - η⊗η/|η|² with |η|² the sum of squares, entered as Peridigm does."""
+    p0 = 1.0 - (e0 * e0) / lsq
+    p1 = ((-e0) * e1) / lsq
+    p2 = ((-e0) * e2) / lsq
+    p4 = 1.0 - (e1 * e1) / lsq
+    p5 = ((-e1) * e2) / lsq
+    p8 = 1.0 - (e2 * e2) / lsq
+    return (p0, p1, p2, p1, p4, p5, p2, p5, p8)
+
+
+@njit(cache=True, error_model="numpy")
+def bond_force_point(i, offsets, neighbors, y, v, volume, horizon, J_N, bond_damage, omega_kind, omega_table, b0, dt, L, m0, phi,
+                     Vb_N, Rb_N, Sb_N, eb_N, model, K, G, sy, ec, nexp, Vb_NP1, Rb_NP1, Sb_NP1, eb_NP1, integral, T):
+    """§8.4 steps 2, 4-8 for the bonds of point i: bond velocity gradient, bond Flanagan-Taylor
+    update, bond stress update, σ_b = R_b (σ̂_b R_bᵀ), the non-homogeneity integral 𝒩_i (into row
+    i of ``integral`` when non-empty) and the force states T_b = (J_N,i T) J_N,j with
+    T_a = ((ω/m0_i) (σ_b η)_a)/|η|² + (𝒩 φ_b)_a, ω = (1 - d) ω(l, δ) > 0 (T_b = 0 otherwise).
+    ``eb_N``/``eb_NP1`` are empty for the elastic model."""
+    delta = horizon[i]
+    lo = offsets[i]
+    hi = offsets[i + 1]
+    Li = load9(L, i)
+    m0i = m0[i]
+    plastic = eb_N.shape[0] > 0
+    N0 = N1 = N2 = N3 = N4 = N5 = N6 = N7 = N8 = 0.0
+    for b in range(lo, hi):
+        j = neighbors[b]
+        e0, e1, e2, length = _bond(i, j, y)
+        Lb = _bond_velocity_gradient(Li, load9(L, j), e0, e1, e2, length * length, v[j, 0] - v[i, 0], v[j, 1] - v[i, 1], v[j, 2] - v[i, 2])
+        V1, R1, db = flanagan_taylor(Lb, load9(Vb_N, b), load9(Rb_N, b), dt)
+        store9(Vb_NP1, b, V1)
+        store9(Rb_NP1, b, R1)
+        sh, e, _, _, _ = stress_update(model, load9(Sb_N, b), db, eb_N[b] if plastic else 0.0, dt, K, G, sy, ec, nexp, True)
+        store9(Sb_NP1, b, sh)
+        if plastic:
+            eb_NP1[b] = e
+        om = (1.0 - _damage(bond_damage, b)) * omega(omega_kind, length, delta, omega_table, b - b0)
+        if om > 0.0:
+            sig = matmul(R1, matmul_nt(sh, R1))
+            Y = matmul(sig, _projector(e0, e1, e2, (e0 * e0 + e1 * e1) + e2 * e2))
+            sc = (om * (0.5 / m0i + 0.5 / m0[j])) * (J_N[j] * volume[j])
+            N0 += sc * Y[0]
+            N1 += sc * Y[1]
+            N2 += sc * Y[2]
+            N3 += sc * Y[3]
+            N4 += sc * Y[4]
+            N5 += sc * Y[5]
+            N6 += sc * Y[6]
+            N7 += sc * Y[7]
+            N8 += sc * Y[8]
+    if integral.shape[0] > 0:
+        store9(integral, i, (N0, N1, N2, N3, N4, N5, N6, N7, N8))
+    Ji = J_N[i]
+    for b in range(lo, hi):
+        j = neighbors[b]
+        e0, e1, e2, length = _bond(i, j, y)
+        om = (1.0 - _damage(bond_damage, b)) * omega(omega_kind, length, delta, omega_table, b - b0)
+        if om > 0.0:
+            R1 = load9(Rb_NP1, b)
+            sig = matmul(R1, matmul_nt(load9(Sb_NP1, b), R1))  # the same σ_b as above, bit for bit
+            lsq = (e0 * e0 + e1 * e1) + e2 * e2
+            c = om / m0i
+            px = phi[b, 0]
+            py = phi[b, 1]
+            pz = phi[b, 2]
+            tx = ((c * ((sig[0] * e0 + sig[1] * e1) + sig[2] * e2)) / lsq) + ((N0 * px + N1 * py) + N2 * pz)
+            ty = ((c * ((sig[3] * e0 + sig[4] * e1) + sig[5] * e2)) / lsq) + ((N3 * px + N4 * py) + N5 * pz)
+            tz = ((c * ((sig[6] * e0 + sig[7] * e1) + sig[8] * e2)) / lsq) + ((N6 * px + N7 * py) + N8 * pz)
+            Jj = J_N[j]
+            T[b, 0] = (Ji * tx) * Jj
+            T[b, 1] = (Ji * ty) * Jj
+            T[b, 2] = (Ji * tz) * Jj
+        else:
+            T[b, 0] = 0.0
+            T[b, 1] = 0.0
+            T[b, 2] = 0.0
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def bond_force_kernel(start, stop, offsets, neighbors, y, v, volume, horizon, J_N, bond_damage, omega_kind, omega_table, dt, L, m0, phi,
+                      Vb_N, Rb_N, Sb_N, eb_N, model, K, G, sy, ec, nexp, Vb_NP1, Rb_NP1, Sb_NP1, eb_NP1, integral, T):
+    """§8.4 bond level for the points [start, stop) (see :func:`bond_force_point`): reads L, m0,
+    J_N, volume, velocities and positions of the neighbors (ghosts included), writes the NP1 bond
+    state of the points' own bonds and their force states T (nb, 3). The engine gathers
+    f_i = Σ_out T_b V_j - Σ_in T_b V_i, i.e. Peridigm's f_i += (J_i T)(J_j V_j), f_j -= (J_j T)(J_i V_i)."""
+    b0 = offsets[start] if stop > start else 0
+    for i in prange(start, stop):
+        bond_force_point(i, offsets, neighbors, y, v, volume, horizon, J_N, bond_damage, omega_kind, omega_table, b0, dt, L, m0, phi,
+                         Vb_N, Rb_N, Sb_N, eb_N, model, K, G, sy, ec, nexp, Vb_NP1, Rb_NP1, Sb_NP1, eb_NP1, integral, T)
+
+
+# ------------------------------------------------------------------------------------------------
+# §8.4 node level (outputs only): F, Green-Lagrange strain, V, R, d, σ̂, σ, vm, eqps, triaxiality
+# ------------------------------------------------------------------------------------------------
+@njit(cache=True, error_model="numpy")
+def node_point(i, L, dt, F_N, F_NP1, E, V_N, R_N, V_NP1, R_NP1, d, S_N, S_NP1, sigma, e_N, e_NP1, vm, triax,
+               model, K, G, sy, ec, nexp):
+    """Node-level quantities of point i (§8.4 steps 3, 5, 6): F_NP1 = F_N + (L F_N) dt,
+    E = 0.5 Fᵀ F - 0.5 I (when ``E`` is non-empty), FT(L, V_N, R_N, dt), the node stress update
+    (eqps, triaxiality when their arrays are non-empty) and σ = R (σ̂ Rᵀ) (when ``sigma`` is
+    non-empty)."""
+    Li = load9(L, i)
+    FN = load9(F_N, i)
+    Fd = matmul(Li, FN)
+    F1 = (
+        FN[0] + Fd[0] * dt, FN[1] + Fd[1] * dt, FN[2] + Fd[2] * dt,
+        FN[3] + Fd[3] * dt, FN[4] + Fd[4] * dt, FN[5] + Fd[5] * dt,
+        FN[6] + Fd[6] * dt, FN[7] + Fd[7] * dt, FN[8] + Fd[8] * dt,
+    )
+    store9(F_NP1, i, F1)
+    if E.shape[0] > 0:
+        C = matmul_tn(F1, F1)
+        store9(E, i, (
+            0.5 * C[0] - 0.5, 0.5 * C[1], 0.5 * C[2],
+            0.5 * C[3], 0.5 * C[4] - 0.5, 0.5 * C[5],
+            0.5 * C[6], 0.5 * C[7], 0.5 * C[8] - 0.5,
+        ))
+    V1, R1, di = flanagan_taylor(Li, load9(V_N, i), load9(R_N, i), dt)
+    store9(V_NP1, i, V1)
+    store9(R_NP1, i, R1)
+    store9(d, i, di)
+    plastic = e_N.shape[0] > 0
+    sh, e, v, tr, wrote = stress_update(model, load9(S_N, i), di, e_N[i] if plastic else 0.0, dt, K, G, sy, ec, nexp, False)
+    store9(S_NP1, i, sh)
+    if plastic:
+        e_NP1[i] = e
+    if vm.shape[0] > 0:
+        vm[i] = v
+    if wrote and triax.shape[0] > 0:
+        triax[i] = tr
+    if sigma.shape[0] > 0:
+        store9(sigma, i, matmul(R1, matmul_nt(sh, R1)))
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def node_kernel(start, stop, L, dt, F_N, F_NP1, E, V_N, R_N, V_NP1, R_NP1, d, S_N, S_NP1, sigma, e_N, e_NP1, vm, triax,
+                model, K, G, sy, ec, nexp):
+    """:func:`node_point` for the points [start, stop). Empty arrays switch the optional parts
+    off: E (Green_Lagrange_Strain), sigma (Cauchy_Stress), e_N/e_NP1 (elastic
+    model), vm (Von_Mises_Stress), triax (Stress_Triaxiality)."""
+    for i in prange(start, stop):
+        node_point(i, L, dt, F_N, F_NP1, E, V_N, R_N, V_NP1, R_NP1, d, S_N, S_NP1, sigma, e_N, e_NP1, vm, triax, model, K, G, sy, ec, nexp)
