@@ -30,9 +30,9 @@ log = logging.getLogger("peridyn.contact")
 #: the short list's margin beyond the contact radius, as a fraction of it
 SKIN_FRACTION = 0.5
 
-#: the stable-step estimate with contact is multiplied by this: over contact springs of 1 to
-#: 1000 times the bulk modulus the largest stable step measured 0.91 to 2.2 times the bare
-#: estimate (benchmarks/results/contact_stability.md)
+#: the contact springs' part of the stable-step estimate is taken this much stiffer (1/0.9^2):
+#: over contact springs of 1 to 1000 times the bulk modulus the largest stable step measured
+#: 0.91 to 2.2 times the estimate without it (benchmarks/results/contact_stability.md)
 STABLE_STEP_MARGIN = 0.9
 
 
@@ -208,8 +208,8 @@ class ContactManager:
         """The critical time step estimate with contact springs added to the bonds: every point
         is taken to touch partners of total volume P_i = the larger of its own volume, the volume
         of its own body within R_c and the ball of radius R_c (a deep contact),
-        dt_i = sqrt(2 rho_i / (sum_bonds V_j c / |xi| + k_c P_i)), k_c the model's pair stiffness, times
-        STABLE_STEP_MARGIN."""
+        dt_i = sqrt(2 rho_i / (sum_bonds V_j c / |xi| + k_c P_i / m^2)), k_c the model's pair stiffness,
+        m = STABLE_STEP_MARGIN."""
         if self._dt_stable is not None:
             return self._dt_stable
         sim = self.sim
@@ -229,7 +229,7 @@ class ContactManager:
         np.maximum(partner, (4.0 / 3.0) * np.pi * np.float64(self.rc) ** 3, out=partner)
         with np.errstate(all="ignore"):
             bond_part = np.where(np.isfinite(dt_bonds), 2.0 * rho / (dt_bonds * dt_bonds), 0.0)
-            dt = STABLE_STEP_MARGIN * np.sqrt(2.0 * rho / (bond_part + stiffness * partner))
+            dt = np.sqrt(2.0 * rho / (bond_part + stiffness * partner / STABLE_STEP_MARGIN**2))
         local = float(np.nanmin(dt)) if n else math.inf
         self._dt_stable = sim.comm.allreduce_min(local)
         return self._dt_stable
@@ -246,13 +246,21 @@ class ContactManager:
             dt_c = self.stable_time_step()
         except Exception:  # a diagnosis must never raise
             return ""
+        k = getattr(self.model.params, "spring_constant", float("nan"))
         if dt > dt_c:
             return (
-                f"contact springs (Spring Constant {getattr(self.model.params, 'spring_constant', float('nan')):.4g}, "
-                f"{self.stiffness_ratio():.3g} times the bulk modulus) lower the stable time step to about {dt_c:.4g}, below the "
-                f"time step {dt:.4g}; use a smaller 'Safety Factor' or 'Fixed dt', or a softer 'Spring Constant'"
+                f"contact springs (Spring Constant {k:.4g}, {self.stiffness_ratio():.3g} times the bulk modulus) lower the stable "
+                f"time step to about {dt_c:.4g}, below the time step {dt:.4g}; use a smaller 'Safety Factor' or 'Fixed dt', or a "
+                "softer 'Spring Constant'"
             )
-        return f"contact was active (smallest pair distance {self.stats['min_distance']:.4g}, contact radius {self.rc:.4g})"
+        if self.stats["min_distance"] < self.rc:
+            return (
+                f"contact springs (Spring Constant {k:.4g}, {self.stiffness_ratio():.3g} times the bulk modulus) were active "
+                f"(smallest pair distance {self.stats['min_distance']:.4g}, contact radius {self.rc:.4g}); the time step {dt:.4g} is "
+                f"below the estimate with contact {dt_c:.4g}, which long contacts of stiff springs can still exceed: halve the "
+                "'Safety Factor' or 'Fixed dt', or use a softer 'Spring Constant'"
+            )
+        return ""
 
     # -- summary --------------------------------------------------------------------------------
     def summary(self) -> dict[str, Any]:
