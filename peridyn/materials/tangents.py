@@ -346,3 +346,29 @@ def bond_based_tangent_kernel(
                             _add_pair(data, pi, 1.0, VV, alpha, beta, mx, my, mz)
             for p in range(indptr[r], indptr[r + 1]):
                 pos[local_of_row[indices[p]]] = -1
+
+
+@njit(cache=True)
+def scatter_local_kernel(rows, Kloc, indptr, indices, data):
+    """data += a dense local matrix Kloc (3 ns, 3 ns) whose points are rows (ns,) (row numbers),
+    entries outside the pattern dropped. Serial (finite-difference path)."""
+    ns = rows.shape[0]
+    for a in range(ns):
+        r = rows[a]
+        lo = indptr[r]
+        hi = indptr[r + 1]
+        for b in range(ns):
+            col = rows[b]
+            # binary search of col in indices[lo:hi] (ascending)
+            left = lo
+            right = hi
+            while left < right:
+                mid = (left + right) // 2
+                if indices[mid] < col:
+                    left = mid + 1
+                else:
+                    right = mid
+            if left < hi and indices[left] == col:
+                for d in range(3):
+                    for c in range(3):
+                        data[left, d, c] += Kloc[3 * a + d, 3 * b + c]

@@ -48,6 +48,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
+from ..materials.tangents import scatter_local_kernel
+
 log = logging.getLogger("peridyn.solver")
 
 
@@ -78,6 +80,7 @@ class TangentTarget:
     nchunks: int
     max_degree: int
     max_in: int
+    probe_length: float | None = None  #: the finite-difference probe of the block being filled (L)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -115,32 +118,6 @@ def kinematic_bc_kernel(indptr, indices, data, diag_pos, fixed):
     if any_fixed:
         kinematic_bc_set_kernel(indptr, indices, data, diag_pos, fixed, D, n)
     return D
-
-
-@njit(cache=True)
-def scatter_local_kernel(rows, Kloc, indptr, indices, data):
-    """data += a dense local matrix Kloc (3 ns, 3 ns) whose points are rows (ns,) (row numbers),
-    entries outside the pattern dropped. Serial (finite-difference path)."""
-    ns = rows.shape[0]
-    for a in range(ns):
-        r = rows[a]
-        lo = indptr[r]
-        hi = indptr[r + 1]
-        for b in range(ns):
-            col = rows[b]
-            # binary search of col in indices[lo:hi] (ascending)
-            left = lo
-            right = hi
-            while left < right:
-                mid = (left + right) // 2
-                if indices[mid] < col:
-                    left = mid + 1
-                else:
-                    right = mid
-            if left < hi and indices[left] == col:
-                for d in range(3):
-                    for c in range(3):
-                        data[left, d, c] += Kloc[3 * a + d, 3 * b + c]
 
 
 @njit(cache=True)
@@ -386,9 +363,9 @@ class TangentMatrix:
             blk.material.precompute(blk.view)
         target = self.target()
         for blk in sim.blocks:
+            target.probe_length = _probe_length(sim, blk, probe_length)
             if not blk.material.tangent(blk.view, target):
-                eps = _probe_length(sim, blk, probe_length)
-                self._finite_difference(blk, eps)
+                self._finite_difference(blk, target.probe_length)
         if self.parallel:
             self._consolidate_diagonal()
         self.assembly_time += _time.perf_counter() - t0

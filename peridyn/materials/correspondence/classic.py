@@ -23,7 +23,13 @@ from ..moduli import bulk_and_shear
 from . import params as P
 from .forces import _force_state, _hourglass_bond, partial_stress_kernel
 from .kinematics import kinematics_kernel, shape_tensor_kernel
-from .stress import elastic_plastic_stress_kernel, elastic_stress_kernel, isotropic_hardening_stress_kernel, needleman_stress_kernel, rotate_piola_kernel
+from .stress import (
+    elastic_plastic_stress_kernel,
+    elastic_stress_kernel,
+    isotropic_hardening_stress_kernel,
+    needleman_stress_kernel,
+    rotate_piola_kernel,
+)
 
 PI = 3.141592653589793
 
@@ -176,6 +182,60 @@ class ClassicCorrespondence(Material):
     def _update_stress(self, block: BlockView, d: np.ndarray) -> None:
         raise NotImplementedError
 
+    # -- implicit tangent ---------------------------------------------------------------------
+    def _stress_model(self) -> tuple[int, np.ndarray]:
+        """(model id, parameters) of :mod:`.fd_tangent` for this material's stress update."""
+        raise NotImplementedError
+
+    def _temperature_change(self, block: BlockView) -> tuple[np.ndarray, np.ndarray]:
+        return np.zeros(0), np.zeros(0)
+
+    def _probe_length(self, block: BlockView, target) -> float | None:
+        """The finite-difference probe: the material's ``Finite Difference Probe Length``, else
+        the one the tangent target carries for this block (the solver's, or Peridigm's default)."""
+        own = getattr(self.params, "finite_difference_probe_length", None)
+        if own is not None:
+            return float(own)
+        carried = getattr(target, "probe_length", None)
+        return float(carried) if carried is not None else None
+
+    def tangent(self, block: BlockView, target) -> bool:
+        """Peridigm's central finite-difference tangent (§12.3) of the block's points in
+        compiled code (:mod:`.fd_tangent`): the same probes, arithmetic and order as the
+        solver's Python finite-difference path, without a Python call per probe. Returns False
+        (the Python path) only when the probe length cannot be determined."""
+        eps = self._probe_length(block, target)
+        if eps is None:
+            return False
+        import numba
+
+        from .fd_tangent import fd_tangent_kernel
+
+        s, nl = block.fields, block.bonds
+        lo, hi = block.start, block.stop
+        if hi <= lo:
+            return True
+        kind, table = self._omega(block)
+        model, prm = self._stress_model()
+        dT_N, dT_NP1 = self._temperature_change(block)
+        dt = float(block.time_step)
+        dv = eps / dt if dt > 0 else 0.0
+        eqps_N = s.n("Equivalent_Plastic_Strain") if self.plastic else np.zeros(1)  # not read by the elastic model
+        pts = np.arange(lo, hi, dtype=np.int64)
+        pts = pts[np.argsort(target.eval_rank[pts], kind="stable")]
+        workers = max(1, min(int(numba.get_num_threads()), hi - lo))
+        M = 3 * (int(target.max_degree) + 1)
+        batch = max(workers, min(8 * workers, (64 << 20) // max(1, 8 * M * M)))
+        bad, status = fd_tangent_kernel(
+            pts, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Coordinates"], s["Velocity"], s["Volume"], s["Horizon"],
+            kind, table, s.n("Left_Stretch_Tensor"), s.n("Rotation_Tensor"), s.n("Unrotated_Cauchy_Stress"), eqps_N, dt,
+            model, prm, dT_N, dT_NP1, float(self.c1), float(eps), float(dv), int(target.nrows), target.row_of_local,
+            target.indptr, target.indices, target.data, int(target.max_degree), workers, batch,
+        )
+        if bad >= 0:
+            self._singular(block, int(bad), "shape tensor" if status == 1 else "deformation gradient")
+        return True
+
     def _vm(self, block: BlockView) -> np.ndarray:
         return self._field_or_scratch(block, "Von_Mises_Stress", 1)
 
@@ -201,6 +261,16 @@ class ElasticCorrespondence(ClassicCorrespondence):
         elastic_stress_kernel(block.start, block.stop, d, s.n("Unrotated_Cauchy_Stress"), float(block.time_step), self.K, self.G,
                               dT_N, dT_NP1, a, s.np1("Unrotated_Cauchy_Stress"))
 
+    def _stress_model(self) -> tuple[int, np.ndarray]:
+        alpha = self.params.thermal_expansion_coefficient
+        return 0, np.array([self.K, self.G, float(alpha) if alpha is not None else 0.0])
+
+    def _temperature_change(self, block: BlockView) -> tuple[np.ndarray, np.ndarray]:
+        if self.params.thermal_expansion_coefficient is None:
+            return np.zeros(0), np.zeros(0)
+        s = block.fields
+        return s.n("Temperature_Change"), s.np1("Temperature_Change")
+
 
 class ElasticPlasticCorrespondence(ClassicCorrespondence):
     name = "Elastic Plastic Correspondence"
@@ -212,6 +282,9 @@ class ElasticPlasticCorrespondence(ClassicCorrespondence):
         elastic_plastic_stress_kernel(block.start, block.stop, d, s.n("Unrotated_Cauchy_Stress"), s.n("Equivalent_Plastic_Strain"),
                                       float(block.time_step), self.K, self.G, float(self.params.yield_stress),
                                       s.np1("Unrotated_Cauchy_Stress"), s.np1("Equivalent_Plastic_Strain"), self._vm(block))
+
+    def _stress_model(self) -> tuple[int, np.ndarray]:
+        return 1, np.array([self.K, self.G, float(self.params.yield_stress)])
 
 
 def _flaw_args(params) -> tuple:
@@ -233,6 +306,12 @@ class IsotropicHardeningCorrespondence(ClassicCorrespondence):
             s.np1("Unrotated_Cauchy_Stress"), s.np1("Equivalent_Plastic_Strain"), self._vm(block),
         )
 
+    def _stress_model(self) -> tuple[int, np.ndarray]:
+        p = self.params
+        on, fx, fy, fz, size, mag = _flaw_args(p)
+        return 2, np.array([self.K, self.G, float(p.yield_stress), float(p.hardening_modulus), 1.0 if on else 0.0, fx, fy, fz, size, mag],
+                           dtype=np.float64)
+
 
 class ViscoplasticNeedlemanCorrespondence(ClassicCorrespondence):
     name = "Viscoplastic Needleman Correspondence"
@@ -248,3 +327,10 @@ class ViscoplasticNeedlemanCorrespondence(ClassicCorrespondence):
             float(p.reference_strain_rate), float(p.reference_strain_0), float(p.reference_strain_1), on, s["Model_Coordinates"],
             fx, fy, fz, size, mag, s.np1("Unrotated_Cauchy_Stress"), s.np1("Equivalent_Plastic_Strain"), self._vm(block),
         )
+
+    def _stress_model(self) -> tuple[int, np.ndarray]:
+        p = self.params
+        on, fx, fy, fz, size, mag = _flaw_args(p)
+        return 3, np.array([self.K, self.G, float(p.yield_stress), float(p.strain_hardening_exponent), float(p.rate_hardening_exponent),
+                            float(p.reference_strain_rate), float(p.reference_strain_0), float(p.reference_strain_1),
+                            1.0 if on else 0.0, fx, fy, fz, size, mag], dtype=np.float64)
