@@ -16,7 +16,9 @@ density and bulk modulus; forces that are minus the gradient of the stored energ
 under rigid motion; agreement of the fused and generic force paths and of row-local parts;
 independence from the thread count (:mod:`peridyn.testing.physics_checks` gives the
 tolerances). :class:`DamageConformance` does the same for damage models, and
-:class:`ContactConformance` for contact models (:mod:`peridyn.testing.contact_suite`).
+:class:`ContactConformance` for contact models (:mod:`peridyn.testing.contact_suite`) and
+:class:`NonOrdinaryConformance` for rate-form, vector force-state materials such as the
+correspondence family (:mod:`peridyn.testing.nonordinary`).
 
 :mod:`peridyn.testing.probes` holds the measurements (moduli of a lattice model, interior
 points); :mod:`peridyn.testing.mutants` derives buggy variants of a model and runs a suite's
@@ -35,10 +37,12 @@ from .harness import (
     scattered_deck,
 )
 from .contact_suite import ContactConformance
+from .nonordinary import NonOrdinaryConformance
 from .suites import DamageConformance, MaterialConformance
 
 __all__ = [
     "ContactConformance",
+    "NonOrdinaryConformance",
     "DamageConformance",
     "MaterialConformance",
     "build_simulation",
