@@ -140,3 +140,41 @@ def test_quasi_static_tension_recovers_youngs_modulus(tmp_path):
     E = 9 * K * G / (3 * K + G)
     assert strain > 0
     assert sigma[middle, 0, 0].mean() / strain == pytest.approx(E, rel=0.1)
+
+
+@pytest.mark.parametrize("coefficient", [0.0, 0.05])
+def test_the_checkerboard_mode_costs_no_energy_without_hourglass_control(coefficient):
+    """Neighbouring points displaced in opposite directions (the checkerboard mode) leave every
+    family's average deformation, hence F, the stress and the correspondence force, unchanged
+    at interior points: the mode has zero energy and nothing stops it from growing. The
+    hourglass force resists it: its work on the mode is positive and the force points back."""
+    from peridyn.testing import build_simulation, cube_deck
+
+    h = 1e-3
+    mat = {"Material Model": "Elastic Correspondence", "Density": 7800.0, "Bulk Modulus": K, "Shear Modulus": G,
+           "Hourglass Coefficient": coefficient}
+    sim = build_simulation(cube_deck(mat, n=11, spacing=h, horizon_factor=1.515))
+    dt = 1e-7
+    sim.set_time_step(dt)
+    x = sim.fields["Model_Coordinates"].copy()
+    k = np.round(x / h - 0.5).astype(int)
+    sign = np.where((k.sum(axis=1) % 2) == 0, 1.0, -1.0)
+    amplitude = 1e-6 * h
+    u = np.zeros_like(x)
+    u[:, 0] = amplitude * sign
+    sim.fields["Coordinates"][:] = x + u
+    sim.fields["Displacement"][:] = u
+    sim.fields["Velocity"][:] = u / dt
+    f = np.array(sim.evaluate_forces()[: sim.num_owned])
+    lo, hi = x.min(axis=0), x.max(axis=0)
+    inner = np.all((x - lo > 2.1 * h) & (hi - x > 2.1 * h), axis=1)
+    assert inner.sum() > 100
+    V = sim.fields["Volume"][: sim.num_owned]
+    work = -float(np.sum((f[inner] * u[inner]).sum(axis=1) * V[inner]))  # energy the mode stores at interior points
+    scale = K * (amplitude / h) ** 2 * V[inner].sum()  # energy of a strain of the same size
+    if coefficient == 0.0:
+        assert abs(work) < 1e-8 * scale
+        assert np.abs(f[inner]).max() < 1e-8 * K * amplitude / h / h
+    else:
+        assert work > 1e-5 * scale  # four decades above the bound without it (C = 0.05 gives about 4e-4)
+        assert np.all(f[inner][:, 0] * u[inner][:, 0] < 0)  # every interior point is pushed back
