@@ -93,14 +93,28 @@ def bsr_matvec_kernel(indptr, indices, data, x, out):
     thread count."""
     n = indptr.shape[0] - 1
     for r in prange(n):
-        for d in range(3):
-            acc = 0.0
-            for p in range(indptr[r], indptr[r + 1]):
-                c0 = 3 * indices[p]
-                acc += data[p, d, 0] * x[c0]
-                acc += data[p, d, 1] * x[c0 + 1]
-                acc += data[p, d, 2] * x[c0 + 2]
-            out[3 * r + d] = acc
+        # the three components of the row in one pass over its blocks (each summed in the
+        # same order as three separate passes would: the same bits, a third of the reads)
+        a0 = 0.0
+        a1 = 0.0
+        a2 = 0.0
+        for p in range(indptr[r], indptr[r + 1]):
+            c0 = 3 * indices[p]
+            x0 = x[c0]
+            x1 = x[c0 + 1]
+            x2 = x[c0 + 2]
+            a0 += data[p, 0, 0] * x0
+            a0 += data[p, 0, 1] * x1
+            a0 += data[p, 0, 2] * x2
+            a1 += data[p, 1, 0] * x0
+            a1 += data[p, 1, 1] * x1
+            a1 += data[p, 1, 2] * x2
+            a2 += data[p, 2, 0] * x0
+            a2 += data[p, 2, 1] * x1
+            a2 += data[p, 2, 2] * x2
+        out[3 * r] = a0
+        out[3 * r + 1] = a1
+        out[3 * r + 2] = a2
 
 
 @njit(cache=True)
