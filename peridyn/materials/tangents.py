@@ -349,6 +349,31 @@ def bond_based_tangent_kernel(
 
 
 @njit(cache=True)
+def local_vector_force_kernel(i, offsets, neighbors, volume, T, out):
+    """``local_force_kernel`` for vector force states T (nb, 3) of i's bonds: f_i = sum T_b V_j,
+    f_j = -T_b V_i on S_i = [N_i..., i]."""
+    o = offsets[i]
+    ns = offsets[i + 1] - o + 1
+    fx = 0.0
+    fy = 0.0
+    fz = 0.0
+    Vi = volume[i]
+    for b in range(o, offsets[i + 1]):
+        j = neighbors[b]
+        k = 3 * (b - o)
+        out[k] = -T[b, 0] * Vi
+        out[k + 1] = -T[b, 1] * Vi
+        out[k + 2] = -T[b, 2] * Vi
+        fx += T[b, 0] * volume[j]
+        fy += T[b, 1] * volume[j]
+        fz += T[b, 2] * volume[j]
+    k = 3 * (ns - 1)
+    out[k] = fx
+    out[k + 1] = fy
+    out[k + 2] = fz
+
+
+@njit(cache=True)
 def scatter_local_kernel(rows, Kloc, indptr, indices, data):
     """data += a dense local matrix Kloc (3 ns, 3 ns) whose points are rows (ns,) (row numbers),
     entries outside the pattern dropped. Serial (finite-difference path)."""

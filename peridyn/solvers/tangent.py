@@ -48,7 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
-from ..materials.tangents import scatter_local_kernel
+from ..materials.tangents import local_vector_force_kernel, scatter_local_kernel
 
 log = logging.getLogger("peridyn.solver")
 
@@ -161,31 +161,6 @@ def local_force_kernel(i, offsets, neighbors, y, volume, t, out):
             fx += s * ex * volume[j]
             fy += s * ey * volume[j]
             fz += s * ez * volume[j]
-    k = 3 * (ns - 1)
-    out[k] = fx
-    out[k + 1] = fy
-    out[k + 2] = fz
-
-
-@njit(cache=True)
-def local_vector_force_kernel(i, offsets, neighbors, volume, T, out):
-    """``local_force_kernel`` for vector force states T (nb, 3) of i's bonds: f_i = sum T_b V_j,
-    f_j = -T_b V_i on S_i = [N_i..., i]."""
-    o = offsets[i]
-    ns = offsets[i + 1] - o + 1
-    fx = 0.0
-    fy = 0.0
-    fz = 0.0
-    Vi = volume[i]
-    for b in range(o, offsets[i + 1]):
-        j = neighbors[b]
-        k = 3 * (b - o)
-        out[k] = -T[b, 0] * Vi
-        out[k + 1] = -T[b, 1] * Vi
-        out[k + 2] = -T[b, 2] * Vi
-        fx += T[b, 0] * volume[j]
-        fy += T[b, 1] * volume[j]
-        fz += T[b, 2] * volume[j]
     k = 3 * (ns - 1)
     out[k] = fx
     out[k + 1] = fy

@@ -276,6 +276,60 @@ class BondAssociatedCorrespondence(Material):
             self._fail(block, int(bad), int(code))
 
 
+    def tangent(self, block: BlockView, target) -> bool:
+        """Peridigm's central finite-difference tangent (§12.3) in compiled code
+        (:mod:`.fd_tangent_rate`): the probes and arithmetic of the solver's Python path, bit
+        for bit."""
+        eps = getattr(target, "probe_length", None)
+        if eps is None:
+            return False
+        import numba
+
+        from . import fd_tangent_rate as FR
+
+        s, nl = block.fields, block.bonds
+        lo, hi = block.start, block.stop
+        if hi <= lo:
+            return True
+        eps = float(eps)
+        dt = float(block.time_step)
+        dv = eps / dt if dt > 0 else 0.0
+        kind, table = self._omega(block)
+        model, p0, p1, p2, p3 = self.curve()
+        plastic = self.plastic
+        damaged = "Damage" in s and "Bond_Damage" in s
+        pts = np.arange(lo, hi, dtype=np.int64)
+        pts = pts[np.argsort(target.eval_rank[pts], kind="stable")]
+        W, batch, M = FR.batching(hi - lo, target.max_degree, numba.get_num_threads())
+        y, v = s["Coordinates"], s["Velocity"]
+        ys, vs = np.repeat(y[None], W, axis=0), np.repeat(v[None], W, axis=0)
+        F6 = np.stack([s[name] for name in F_ROWS + FDOT_ROWS])
+        F6s = np.repeat(F6[None], W, axis=0)
+        T = np.zeros((nl.num_bonds, 3))
+        Fps, Fms = np.empty((W, M)), np.empty((W, M))
+        Kbuf = np.empty((batch, M * M))
+        status = np.zeros(batch, dtype=np.int64)
+        for k0 in range(0, pts.shape[0], batch):
+            k1 = min(k0 + batch, pts.shape[0])
+            FR.ba_blocks(
+                pts, k0, k1, nl.offsets, nl.neighbors, s["Model_Coordinates"], ys, vs, s["Displacement"], s["Volume"], s["Horizon"],
+                kind, table, damaged, s.n("Damage") if damaged else EMPTY, s["Damage"] if damaged else EMPTY,
+                s["Bond_Damage"] if damaged else EMPTY, s["Influence_State"], s["Gradient_Weight"], s["Weighted_Volume"], F6, F6s,
+                s.n("Bond_Left_Stretch_Tensor"), s.n("Bond_Rotation_Tensor"), s.np1("Bond_Left_Stretch_Tensor"), s.np1("Bond_Rotation_Tensor"),
+                s.n("Bond_Unrotated_Cauchy_Stress"), s.np1("Bond_Unrotated_Cauchy_Stress"),
+                s.n("Bond_Equivalent_Plastic_Strain") if plastic else EMPTY, s.np1("Bond_Equivalent_Plastic_Strain") if plastic else EMPTY,
+                model, float(self.K), float(self.G), p0, p1, p2, p3, dt, eps, dv, self._scratch("Piola", (nl.num_bonds, 9)), T,
+                Fps, Fms, Kbuf, status,
+            )
+            bad = np.flatnonzero(status[: k1 - k0])
+            n_ok = int(bad[0]) if bad.size else k1 - k0
+            FR.scatter_batch(pts, k0, k0 + n_ok, W, nl.offsets, nl.neighbors, int(target.nrows), target.row_of_local, Kbuf,
+                             target.indptr, target.indices, target.data)
+            if bad.size:
+                self._fail(block, int(pts[k0 + n_ok]), int(status[n_ok]))
+        return True
+
+
 class ElasticBondAssociatedCorrespondence(BondAssociatedCorrespondence):
     name = "Elastic Bond Associated Correspondence"
     Params = BondAssociatedParams

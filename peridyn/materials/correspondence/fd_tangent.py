@@ -7,7 +7,7 @@ freedom (q, c) of S_i = [N_i..., i] (neighbors in list order, then i): y_qc is m
 point i is re-evaluated from the N state (V_N, R_N, σ̂_N, eqps_N): kinematics, stress update,
 rotation and A = P K⁻¹, then the vector force states T(i→j) of i's bonds (hourglass term
 included) and their contributions on S_i, f_i += T V_j, f_j -= T V_i
-(:func:`peridyn.solvers.tangent.local_vector_force_kernel`); the column is
+(:func:`peridyn.materials.tangents.local_vector_force_kernel`); the column is
 (((F+ - F-)/eps)·0.5)·V_s. The local 3|S_i| x 3|S_i| block is added into the matrix with
 :func:`peridyn.materials.tangents.scatter_local_kernel` (rows ``row_of_local``; degrees of freedom
 of points beyond ``nrows`` dropped), points in ``pts`` order: the same arithmetic, in the same

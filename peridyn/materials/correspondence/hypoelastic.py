@@ -266,6 +266,54 @@ class HypoelasticCorrespondence(Material):
             self.model, self.K, self.G, sy, ec, n,
         )
 
+    def tangent(self, block: BlockView, target) -> bool:
+        """Peridigm's central finite-difference tangent (§12.3) in compiled code
+        (:mod:`.fd_tangent_rate`): the probes and arithmetic of the solver's Python path, bit for
+        bit. An expression influence function (ω at deformed lengths, re-tabulated per probe)
+        keeps the Python path (returns False)."""
+        inf = block.influence
+        eps = getattr(target, "probe_length", None)
+        if eps is None or (inf is not None and inf.kind == TABLE):
+            return False
+        import numba
+
+        from . import fd_tangent_rate as FR
+
+        s, nl = block.fields, block.bonds
+        lo, hi = block.start, block.stop
+        if hi <= lo:
+            return True
+        eps = float(eps)
+        dt = float(block.time_step)
+        dv = eps / dt if dt > 0 else 0.0
+        kind = inf.kind if inf is not None else 0
+        sy, ec, nexp = self._stress_args()
+        eb_N, eb_NP1 = (s.n("Bond_Equivalent_Plastic_Strain"), s.np1("Bond_Equivalent_Plastic_Strain")) if self.plastic else (EMPTY1, EMPTY1)
+        pts = np.arange(lo, hi, dtype=np.int64)
+        pts = pts[np.argsort(target.eval_rank[pts], kind="stable")]
+        W, batch, M = FR.batching(hi - lo, target.max_degree, numba.get_num_threads())
+        y, v, L, m0, phi = s["Coordinates"], s["Velocity"], s["Velocity_Gradient"], s["Undamaged_Weighted_Volume"], s["Gradient_Weight"]
+        ys, vs = np.repeat(y[None], W, axis=0), np.repeat(v[None], W, axis=0)
+        Ls, m0s = np.repeat(L[None], W, axis=0), np.repeat(m0[None], W, axis=0)
+        Js = np.zeros((W, y.shape[0]))
+        phi0 = phi.copy()
+        T = np.zeros((nl.num_bonds, 3))
+        Fps, Fms = np.empty((W, M)), np.empty((W, M))
+        Kbuf = np.empty((batch, M * M))
+        for k0 in range(0, pts.shape[0], batch):
+            k1 = min(k0 + batch, pts.shape[0])
+            FR.hypo_blocks(
+                pts, k0, k1, nl.offsets, nl.neighbors, ys, vs, s["Volume"], s["Horizon"], s.n("Jacobian_Determinant"),
+                self._bond_damage(block), kind, self.table, dt, eps, dv, L, m0, Ls, m0s, phi, phi0, Js,
+                s.n("Bond_Left_Stretch_Tensor"), s.n("Bond_Rotation_Tensor"), s.n("Bond_Unrotated_Cauchy_Stress"), eb_N,
+                self.model, self.K, self.G, sy, ec, nexp,
+                s.np1("Bond_Left_Stretch_Tensor"), s.np1("Bond_Rotation_Tensor"), s.np1("Bond_Unrotated_Cauchy_Stress"), eb_NP1,
+                T, Fps, Fms, Kbuf,
+            )
+            FR.scatter_batch(pts, k0, k1, W, nl.offsets, nl.neighbors, int(target.nrows), target.row_of_local, Kbuf,
+                             target.indptr, target.indices, target.data)
+        return True
+
     def _scratch_d(self, n: int) -> np.ndarray:
         d = getattr(self, "_d", None)
         if d is None or d.shape[0] != n:
