@@ -46,8 +46,6 @@ class AMGPreconditioner:
     def __init__(self, A, matvec: Callable[[np.ndarray, np.ndarray], np.ndarray], coords: np.ndarray | None, symmetric: bool = True) -> None:
         import pyamg
 
-        from .linear import rigid_body_modes
-
         self.n = int(A.shape[0])
         self.matvec = matvec
         B = rigid_body_modes(coords) if coords is not None and coords.shape[0] * 3 == self.n else None
@@ -111,6 +109,21 @@ class AMGPreconditioner:
         np.subtract(r, self._Ax, out=self._r)
         x += w * (self.dinv * self._r)
         return x
+
+
+def rigid_body_modes(x_rows: np.ndarray) -> np.ndarray:
+    """(3n, 6) translations and infinitesimal rotations at the points x_rows (n, 3), dof
+    order 3 g + c: the near-null space of an elasticity operator, for smoothed aggregation."""
+    n = x_rows.shape[0]
+    c = x_rows - x_rows.mean(axis=0) if n else x_rows
+    B = np.zeros((n, 3, 6))
+    for d in range(3):
+        B[:, d, d] = 1.0
+    # rotations about x, y, z: omega x r
+    B[:, 1, 3], B[:, 2, 3] = -c[:, 2], c[:, 1]
+    B[:, 0, 4], B[:, 2, 4] = c[:, 2], -c[:, 0]
+    B[:, 0, 5], B[:, 1, 5] = -c[:, 1], c[:, 0]
+    return B.reshape(3 * n, 6)
 
 
 def _dense_solver(A) -> Callable[[np.ndarray], np.ndarray]:

@@ -281,21 +281,6 @@ def pcg(matvec, b: np.ndarray, tol: float, maxiter: int, precond=None, comm=None
     return SolveResult(x, False, maxiter, f"CG reached {maxiter} iterations (relative residual {rnorm / bnorm:.3g})")
 
 
-def rigid_body_modes(x_rows: np.ndarray) -> np.ndarray:
-    """(3n, 6) translations and infinitesimal rotations at the points x_rows (n, 3), dof
-    order 3 g + c: the near-null space of an elasticity operator, for smoothed aggregation."""
-    n = x_rows.shape[0]
-    c = x_rows - x_rows.mean(axis=0) if n else x_rows
-    B = np.zeros((n, 3, 6))
-    for d in range(3):
-        B[:, d, d] = 1.0
-    # rotations about x, y, z: omega x r
-    B[:, 1, 3], B[:, 2, 3] = -c[:, 2], c[:, 1]
-    B[:, 0, 4], B[:, 2, 4] = c[:, 2], -c[:, 0]
-    B[:, 0, 5], B[:, 1, 5] = -c[:, 1], c[:, 0]
-    return B.reshape(3 * n, 6)
-
-
 @dataclass
 class LinearSolver:
     """Solves A x = b for the current matrix of a TangentMatrix.
