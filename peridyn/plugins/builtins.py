@@ -34,6 +34,8 @@ BUILTIN_COMPUTES: tuple[tuple[str, str], ...] = (
     ("Block_Data", f"{_R}:BlockData"),
     ("Node_Set_Data", f"{_R}:NodeSetData"),
     ("Nearest_Point_Data", f"{_R}:NearestPointData"),
+    ("J_Integral", "peridyn.computes.j_integral:JIntegralDomain"),
+    ("JIntegral", "peridyn.computes.j_integral:PeridigmJIntegral"),
 )
 
 
@@ -53,6 +55,12 @@ def peridyn_materials():
     return [
         ("Elastic", "peridyn.materials.elastic:Elastic"),
         ("Elastic Bond Based", "peridyn.materials.elastic_bond_based:ElasticBondBased"),
+        ("Linear LPS Partial Volume", "peridyn.materials.linear_lps_pv:LinearLPSPartialVolume"),
+        ("Elastic Partial Volume", "peridyn.materials.linear_lps_pv:ElasticPartialVolume"),
+        ("Elastic Plastic", "peridyn.materials.elastic_plastic:ElasticPlastic"),
+        ("Elastic Plastic Hardening", "peridyn.materials.elastic_plastic_hardening:ElasticPlasticHardening"),
+        ("Viscoelastic", "peridyn.materials.viscoelastic:Viscoelastic"),
+        ("Pals", "peridyn.materials.pals:Pals"),
         ("Elastic Correspondence", "peridyn.materials.correspondence.classic:ElasticCorrespondence"),
         ("Elastic Plastic Correspondence", "peridyn.materials.correspondence.classic:ElasticPlasticCorrespondence"),
         ("Isotropic Hardening Correspondence", "peridyn.materials.correspondence.classic:IsotropicHardeningCorrespondence"),
@@ -63,6 +71,7 @@ def peridyn_materials():
         ("Elastic Bond Associated Correspondence", "peridyn.materials.correspondence.bond_associated:ElasticBondAssociatedCorrespondence"),
         ("Elastic Plastic Bond Associated Correspondence", "peridyn.materials.correspondence.bond_associated:ElasticPlasticBondAssociatedCorrespondence"),
         ("Isotropic Hardening Bond Associated Correspondence", "peridyn.materials.correspondence.bond_associated:IsotropicHardeningBondAssociatedCorrespondence"),
+        ("Diffusion", "peridyn.materials.diffusion:Diffusion"),
     ]
 
 
@@ -72,6 +81,10 @@ def peridyn_damage_models():
         ("Critical Stretch", "peridyn.damage.critical_stretch:CriticalStretch"),
         ("Time Dependent Critical Stretch", "peridyn.damage.critical_stretch:TimeDependentCriticalStretch"),
         ("Initial Damage", "peridyn.damage.initial_damage:InitialDamage"),
+        ("Interface Aware", "peridyn.damage.interface_aware:InterfaceAware"),
+        ("Johnson Cook", "peridyn.damage.johnson_cook:JohnsonCook"),
+        ("Von Mises Stress", "peridyn.damage.von_mises_stress:VonMisesStress"),
+        ("Critical Energy", "peridyn.damage.critical_energy:CriticalEnergy"),
     ]
 
 
@@ -90,6 +103,7 @@ def peridyn_solvers():
         ("QuasiStatic", "peridyn.solvers.quasistatic:QuasiStatic"),
         ("NOXQuasiStatic", "peridyn.solvers.nox:NOXQuasiStatic"),
         ("Implicit", "peridyn.solvers.implicit:Implicit"),
+        ("ImplicitDiffusion", "peridyn.solvers.implicit_diffusion:ImplicitDiffusion"),
     ]
 
 

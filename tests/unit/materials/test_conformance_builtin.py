@@ -37,6 +37,42 @@ class TestElasticBondBasedPlaneStrain(MaterialConformance):
     params = {"Density": 7800.0, "Bulk Modulus": 130.0e9, "Plane Strain": True, "Height": 0.01}
 
 
+class TestPals(MaterialConformance):
+    material = "Pals"
+    params = {"Density": 7800.0, "Bulk Modulus": 160.0e9, "Shear Modulus": 80.0e9}
+
+
+class TestPalsGaussian(MaterialConformance):
+    material = "Pals"
+    params = {"Density": 2700.0, "Young's Modulus": 70.0e9, "Poisson's Ratio": 0.33,
+              "Dilatation Influence Function": "Gaussian", "Deviatoric Influence Function": "Parabolic Decay"}
+
+
+class TestElasticPlastic(MaterialConformance):
+    material = "Elastic Plastic"
+    params = {"Density": 7800.0, "Bulk Modulus": 160.0e9, "Shear Modulus": 80.0e9, "Yield Stress": 1.0e12}  # elastic at the kit's strains
+
+
+class TestElasticPlasticHardening(MaterialConformance):
+    material = "Elastic Plastic Hardening"
+    params = {"Density": 7800.0, "Bulk Modulus": 160.0e9, "Shear Modulus": 80.0e9, "Yield Stress": 1.0e12, "Hardening Modulus": 1.0e30}
+
+
+class TestElasticPlasticYielding(MaterialConformance):
+    material = "Elastic Plastic"  # elastic under the moduli checks' strains (1e-5), yielding under the random ones (1e-3)
+    params = {"Density": 7800.0, "Bulk Modulus": 160.0e9, "Shear Modulus": 80.0e9, "Yield Stress": 1.0e7}
+
+
+class TestElasticPlasticHardeningYielding(MaterialConformance):
+    material = "Elastic Plastic Hardening"
+    params = {"Density": 7800.0, "Bulk Modulus": 160.0e9, "Shear Modulus": 80.0e9, "Yield Stress": 1.0e7, "Hardening Modulus": 1.0e45}
+
+
+class TestViscoelastic(MaterialConformance):
+    material = "Viscoelastic"
+    params = {"Density": 7800.0, "Bulk Modulus": 160.0e9, "Shear Modulus": 80.0e9, "lambda_i": 0.5, "tau b": 1.0e-3}
+
+
 class TestCriticalStretch(DamageConformance):
     damage = "Critical Stretch"
     params = {"Critical Stretch": 0.01}

@@ -1,0 +1,476 @@
+"""Shared kernels of the ordinary state-based materials with a deviatoric internal state:
+``Elastic Plastic`` and ``Elastic Plastic Hardening`` (Mitchell's J2 plasticity on the
+deviatoric extension state) and ``Viscoelastic`` (a standard linear solid on the deviatoric
+extension state). PERIDIGM_MODELS.md §1-§3.
+
+Common to all three (notation of :mod:`peridyn.materials.elastic`): for point i with weighted
+volume m_i = sum_j omega zeta^2 V_j and dilatation theta_i = sum_j 3 omega (1-d) zeta e V_j / m_i
+(both with the deck's influence function omega, e = |eta| - zeta), the scalar force state of the
+bond i->j is
+
+    t_ij = D (c_i zeta + D t^d_ij)      (plasticity; D = 1 - d)
+    t_ij = D (c_i zeta + t^d_ij)        (viscoelasticity, where D is inside e^d)
+
+with c_i = 3 K theta_i / m_i, alpha_i = 15 mu / m_i and the deviatoric extension
+e^d = (|eta| - zeta) - theta_i zeta / 3. The deviatoric force state t^d uses omega = 1 whatever
+the deck's influence function (Peridigm's kernels fix OMEGA = 1.0; trap 1 of §15).
+
+Plasticity (state e^dp per bond and lambda per point, read from N, written to NP1 at every
+evaluation): trial t^tr = alpha (e^d - e^dp_N); its norm ||t^tr||^2 = sum_j ((1-d) t^tr)^2 V_j
+(damage once); yield if ||t^tr||^2 / 2 > Y (Y = 25 sigma_y^2 / (8 pi delta^5)); then
+perfect plasticity scales t^d onto the yield surface, hardening solves Peridigm's cubic for
+d lambda (:func:`update_delta_lambda`).
+
+Force paths: ``*_force_state_kernel`` writes the force states of a view's own bonds (the
+engine gathers both ends); ``*_fused_kernel`` computes both ends of every bond of a closed block
+in one pass, reading the far end's state through the reverse bond. Tangents:
+:mod:`peridyn.materials.deviatoric_tangents`.
+
+Kernels take flat arrays: x, y (n, 3) L; volume (n,) L^3; offsets (n+1,), neighbors (nb,);
+bond arrays (nb,); point arrays (n,). An empty ``bond_damage`` means no damage model.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any, ClassVar
+
+import numpy as np
+from numba import njit, prange
+from pydantic import Field, model_validator
+
+from ..core.fields import FieldSpec, Relation, Temporal
+from ..core.influence import omega
+from ..core.interfaces import BlockView, Material
+from .elastic import weighted_volume_kernel
+from .moduli import IsotropicElasticParams
+
+EMPTY = np.zeros(0)
+PERFECT, HARDENING, VISCO = 0, 1, 2  # model switch of the finite-difference tangent
+
+
+# ------------------------------------------------------------------------------------------------
+# per-point pieces
+# ------------------------------------------------------------------------------------------------
+@njit(cache=True, inline="always", error_model="numpy")
+def point_theta(i, offsets, neighbors, zeta, y, volume, m_i, omega_kind, delta, omega_table, bond_damage):
+    """theta_i = sum_j 3 omega (1-d) zeta e V_j / m_i (Peridigm's computeDilatation, no thermal
+    term; 0 for a point without weighted volume)."""
+    if m_i == 0.0:
+        return 0.0
+    has_damage = bond_damage.shape[0] > 0
+    acc = 0.0
+    for b in range(offsets[i], offsets[i + 1]):
+        j = neighbors[b]
+        z = zeta[b]
+        ex = y[j, 0] - y[i, 0]
+        ey = y[j, 1] - y[i, 1]
+        ez = y[j, 2] - y[i, 2]
+        e = math.sqrt(ex * ex + ey * ey + ez * ez) - z
+        w = omega(omega_kind, z, delta, omega_table, b)
+        keep = 1.0 - bond_damage[b] if has_damage else 1.0
+        acc += ((((3.0 * w) * keep) * z) * e) * volume[j]
+    return acc / m_i
+
+
+@njit(cache=True, error_model="numpy")
+def update_delta_lambda(n, lam_n, Yp, alpha, H):
+    """Peridigm's ``updateDeltaLambda``: the plastic multiplier increment of Elastic Plastic
+    Hardening, the smallest positive root of the cubic x^3 + a x^2 + b x + c = 0 that states
+    (n / (1 + alpha x))^2 / 2 = Yp + H (lam_n + x), or 0 (PERIDIGM_MODELS.md §2)."""
+    a = ((2.0 / alpha + lam_n) + Yp / H)
+    b = ((H + ((2.0 * alpha) * H) * lam_n) + (2.0 * alpha) * Yp) / ((alpha * alpha) * H)
+    c = (((2.0 * H) * lam_n + 2.0 * Yp) - n * n) / (((2.0 * alpha) * alpha) * H)
+    Q = (a * a - 3.0 * b) / 9.0
+    R = ((((2.0 * a) * a) * a - (9.0 * a) * b) + 27.0 * c) / 54.0
+    if R * R < (Q * Q) * Q:
+        phi = math.acos(R / math.sqrt((Q * Q) * Q))
+        sq = -2.0 * math.sqrt(Q)
+        best = np.inf
+        for shift in (0.0, (2.0 * math.pi) / 3.0, -((2.0 * math.pi) / 3.0)):
+            r = sq * math.cos(phi / 3.0 + shift) - a / 3.0
+            if r > 0.0 and abs(r) < abs(best):
+                best = r
+        return 0.0 if best == np.inf else best
+    sign = 1.0 if R > 0.0 else (-1.0 if R < 0.0 else 0.0)
+    A = -sign * (abs(R) + math.sqrt(R * R - (Q * Q) * Q)) ** (1.0 / 3.0)
+    B = Q / A
+    val = (A + B) - a / 3.0
+    return max(val, 0.0)
+
+
+@njit(cache=True, error_model="numpy")
+def plastic_point(i, offsets, neighbors, zeta, y, volume, m_i, theta_i, K, mu, s, Y, H, hardening, bond_damage, edp_n, lam_n):
+    """Trial norm and yield decision of point i: (alpha, c, n, d lambda, plastic) with
+    alpha = (s 15 mu) / m_i, c = 3 K theta_i / m_i, n = ||t^tr|| (damage once) and d lambda
+    the plastic increment (0 when elastic). ``hardening``: Peridigm's cubic with modulus H,
+    else perfect plasticity; s is the shear correction factor (1 without)."""
+    if m_i == 0.0:
+        return 0.0, 0.0, 0.0, 0.0, False
+    has_damage = bond_damage.shape[0] > 0
+    alpha = ((s * 15.0) * mu) / m_i
+    c = (((3.0 * K) * theta_i) * 1.0) / m_i
+    norm2 = 0.0
+    for b in range(offsets[i], offsets[i + 1]):
+        j = neighbors[b]
+        z = zeta[b]
+        ex = y[j, 0] - y[i, 0]
+        ey = y[j, 1] - y[i, 1]
+        ez = y[j, 2] - y[i, 2]
+        L = math.sqrt(ex * ex + ey * ey + ez * ez)
+        ed = (L - z) - (theta_i * z) / 3.0
+        keep = 1.0 - bond_damage[b] if has_damage else 1.0
+        tt = ((keep * alpha) * 1.0) * (ed - edp_n[b])
+        norm2 += (tt * tt) * volume[j]
+    n = math.sqrt(norm2)
+    Yp = (s * s) * Y
+    f = (n * n) / 2.0 - Yp
+    dlam = 0.0
+    plastic = False
+    if f > 0.0:
+        if hardening:
+            dlam = update_delta_lambda(n, lam_n, Yp, alpha, H)
+            dlam = max(dlam, 0.0)
+            plastic = dlam > 0.0
+        else:
+            dlam = (n / math.sqrt(2.0 * Yp) - 1.0) / alpha
+            plastic = True
+    return alpha, c, n, dlam, plastic
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def plastic_td(L, z, theta, alpha, n, dlam, plastic, root, hardening, edp_n):
+    """(t^d, e^dp_NP1) of one bond of deformed length L and reference length z whose owner has
+    dilatation theta and the return-map data (alpha, n, d lambda, plastic, root = sqrt(2 Y_p))."""
+    ed = (L - z) - (theta * z) / 3.0
+    tt = (alpha * 1.0) * (ed - edp_n)
+    if not plastic:
+        return tt, edp_n
+    td = tt / (1.0 + alpha * dlam) if hardening else (root * tt) / n
+    return td, edp_n + td * dlam
+
+
+@njit(cache=True, error_model="numpy")
+def plastic_bonds(i, shift, offsets, neighbors, zeta, y, theta_i, alpha, c, n, dlam, plastic, Yp, hardening, bond_damage, edp_n, t, edp_np1):
+    """Second pass of point i: t[b - shift] (force state, M L^-5 T^-2) and edp_np1[b - shift]
+    for its bonds b."""
+    has_damage = bond_damage.shape[0] > 0
+    root = math.sqrt(2.0 * Yp) if plastic and not hardening else 0.0
+    for b in range(offsets[i], offsets[i + 1]):
+        j = neighbors[b]
+        z = zeta[b]
+        ex = y[j, 0] - y[i, 0]
+        ey = y[j, 1] - y[i, 1]
+        ez = y[j, 2] - y[i, 2]
+        L = math.sqrt(ex * ex + ey * ey + ez * ez)
+        td, edp_np1[b - shift] = plastic_td(L, z, theta_i, alpha, n, dlam, plastic, root, hardening, edp_n[b])
+        keep = 1.0 - bond_damage[b] if has_damage else 1.0
+        t[b - shift] = keep * (c * z + keep * td)
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def plastic_points_kernel(start, stop, offsets, neighbors, zeta, y, volume, m, theta, K, mu, scf, Y, H, hardening, bond_damage, edp_n, lam_n, lam_np1, pp):
+    """Return-map data of the points [start, stop) for the fused kernel: pp[i] = (alpha, c, n,
+    d lambda, plastic (1/0), sqrt(2 Y_p) of a perfectly plastic step), and lam_np1[i]."""
+    has_scf = scf.shape[0] > 0
+    for i in prange(start, stop):
+        s = scf[i] if has_scf else 1.0
+        alpha, c, n, dlam, plastic = plastic_point(i, offsets, neighbors, zeta, y, volume, m[i], theta[i], K, mu, s, Y, H, hardening, bond_damage, edp_n, lam_n[i])
+        lam_np1[i] = lam_n[i] + dlam if plastic else lam_n[i]
+        pp[i, 0] = alpha
+        pp[i, 1] = c
+        pp[i, 2] = n
+        pp[i, 3] = dlam
+        pp[i, 4] = 1.0 if plastic else 0.0
+        pp[i, 5] = math.sqrt(2.0 * ((s * s) * Y)) if plastic and not hardening else 0.0
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def plastic_fused_kernel(start, stop, offsets, neighbors, reverse, zeta, y, volume, theta, pp, hardening, bond_damage, edp_n, edp_np1, f):
+    """f_i = sum_j (t_ij + t_ji) (eta/|eta|) V_j for i in [start, stop), both ends of every bond
+    computed here (closed block: ``reverse`` gives the bond j->i, whose damage and e^dp_N the far
+    end uses), and e^dp_NP1 of i's own bonds. pp from :func:`plastic_points_kernel`."""
+    has_damage = bond_damage.shape[0] > 0
+    for i in prange(start, stop):
+        fx = 0.0
+        fy = 0.0
+        fz = 0.0
+        for b in range(offsets[i], offsets[i + 1]):
+            j = neighbors[b]
+            rb = reverse[b]
+            z = zeta[b]
+            ex = y[j, 0] - y[i, 0]
+            ey = y[j, 1] - y[i, 1]
+            ez = y[j, 2] - y[i, 2]
+            L = math.sqrt(ex * ex + ey * ey + ez * ez)
+            td_i, edp_np1[b] = plastic_td(L, z, theta[i], pp[i, 0], pp[i, 2], pp[i, 3], pp[i, 4] != 0.0, pp[i, 5], hardening, edp_n[b])
+            td_j, _ = plastic_td(L, zeta[rb], theta[j], pp[j, 0], pp[j, 2], pp[j, 3], pp[j, 4] != 0.0, pp[j, 5], hardening, edp_n[rb])
+            k_i = 1.0 - bond_damage[b] if has_damage else 1.0
+            k_j = 1.0 - bond_damage[rb] if has_damage else 1.0
+            t = k_i * (pp[i, 1] * z + k_i * td_i) + k_j * (pp[j, 1] * zeta[rb] + k_j * td_j)
+            if L > 0.0:
+                s = (t * volume[j]) / L
+                fx += s * ex
+                fy += s * ey
+                fz += s * ez
+        f[i, 0] = fx
+        f[i, 1] = fy
+        f[i, 2] = fz
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def dilatation_kernel(start, stop, offsets, neighbors, zeta, y, volume, m, omega_kind, delta, omega_table, bond_damage, theta):
+    """theta[i] (dimensionless) of the points [start, stop) (:func:`point_theta`)."""
+    for i in prange(start, stop):
+        theta[i] = point_theta(i, offsets, neighbors, zeta, y, volume, m[i], omega_kind, delta, omega_table, bond_damage)
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def plastic_force_state_kernel(
+    start, stop, offsets, neighbors, zeta, y, volume, m, theta, K, mu, scf, Y, H, hardening, bond_damage, edp_n, lam_n, t, edp_np1, lam_np1,
+):
+    """Force state t (nb,) of the bonds of points [start, stop), and their new plastic state:
+    edp_np1 (nb,) (L), lam_np1 (n,). scf (n,) shear correction factors or empty (1)."""
+    has_scf = scf.shape[0] > 0
+    for i in prange(start, stop):
+        s = scf[i] if has_scf else 1.0
+        alpha, c, n, dlam, plastic = plastic_point(
+            i, offsets, neighbors, zeta, y, volume, m[i], theta[i], K, mu, s, Y, H, hardening, bond_damage, edp_n, lam_n[i]
+        )
+        lam_np1[i] = lam_n[i] + dlam if plastic else lam_n[i]
+        plastic_bonds(i, 0, offsets, neighbors, zeta, y, theta[i], alpha, c, n, dlam, plastic, (s * s) * Y, hardening, bond_damage, edp_n, t, edp_np1)
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def visco_t(keep, e, e_n, z, theta_n, theta, c, k1, k2, decay, beta, edb_n):
+    """(t, e^b_NP1) of one bond: extension e = |eta| - zeta now and e_n at N, owner dilatations
+    theta_n and theta, owner coefficients c = 3 K theta / m, k1 = (1 - lambda_i) alpha, k2 =
+    lambda_i alpha."""
+    ei_n = (theta_n * z) / 3.0
+    ei_np1 = (theta * z) / 3.0
+    ed_n = keep * e_n - ei_n
+    ed_np1 = keep * e - ei_np1
+    eb = (ed_n * (1.0 - decay) + edb_n * decay) + beta * (ed_np1 - ed_n)
+    td = k1 * ed_np1 + k2 * (ed_np1 - eb)
+    return keep * ((c * 1.0) * z + td), eb
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def visco_coefficients(m, theta, K, mu, lam_i):
+    """(c, k1, k2) of a point (zeros without weighted volume)."""
+    if m == 0.0:
+        return 0.0, 0.0, 0.0
+    alpha = (15.0 * mu) / m
+    return ((3.0 * K) * theta) / m, ((1.0 - lam_i) * alpha) * 1.0, (lam_i * alpha) * 1.0
+
+
+@njit(cache=True, error_model="numpy")
+def visco_bonds(i, shift, offsets, neighbors, zeta, y, m_i, theta_n, theta_np1, K, mu, lam_i, decay, beta, bond_damage, ext_n, edb_n, t, ext_np1, edb_np1):
+    """Standard linear solid on the deviatoric extension of point i's bonds b: t[b - shift],
+    the back extension edb_np1[b - shift] and the bond extension ext_np1[b - shift] = |eta| -
+    zeta (the N value of the next step). ext_n, edb_n: N values (L). No force without
+    weighted volume."""
+    has_damage = bond_damage.shape[0] > 0
+    c, k1, k2 = visco_coefficients(m_i, theta_np1, K, mu, lam_i)
+    for b in range(offsets[i], offsets[i + 1]):
+        j = neighbors[b]
+        z = zeta[b]
+        keep = 1.0 - bond_damage[b] if has_damage else 1.0
+        ex = y[j, 0] - y[i, 0]
+        ey = y[j, 1] - y[i, 1]
+        ez = y[j, 2] - y[i, 2]
+        e = math.sqrt(ex * ex + ey * ey + ez * ez) - z
+        ext_np1[b - shift] = e
+        t[b - shift], edb_np1[b - shift] = visco_t(keep, e, ext_n[b], z, theta_n, theta_np1, c, k1, k2, decay, beta, edb_n[b])
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def visco_force_state_kernel(start, stop, offsets, neighbors, zeta, y, m, theta_n, theta, K, mu, lam_i, decay, beta, bond_damage, ext_n, edb_n, t, ext_np1, edb_np1):
+    """Force state t (nb,) of the bonds of points [start, stop) and their new back extension
+    edb_np1 and extension ext_np1 (nb,) (L)."""
+    for i in prange(start, stop):
+        visco_bonds(i, 0, offsets, neighbors, zeta, y, m[i], theta_n[i], theta[i], K, mu, lam_i, decay, beta, bond_damage, ext_n, edb_n, t, ext_np1, edb_np1)
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def visco_fused_kernel(start, stop, offsets, neighbors, reverse, zeta, y, volume, m, theta_n, theta, K, mu, lam_i, decay, beta, bond_damage, ext_n, edb_n, ext_np1, edb_np1, f):
+    """f_i = sum_j (t_ij + t_ji) (eta/|eta|) V_j for i in [start, stop), both ends computed here
+    (``reverse`` gives the bond j->i, whose damage and N state the far end uses), and the new
+    state of i's own bonds."""
+    has_damage = bond_damage.shape[0] > 0
+    for i in prange(start, stop):
+        fx = 0.0
+        fy = 0.0
+        fz = 0.0
+        c_i, k1_i, k2_i = visco_coefficients(m[i], theta[i], K, mu, lam_i)
+        for b in range(offsets[i], offsets[i + 1]):
+            j = neighbors[b]
+            rb = reverse[b]
+            z = zeta[b]
+            ex = y[j, 0] - y[i, 0]
+            ey = y[j, 1] - y[i, 1]
+            ez = y[j, 2] - y[i, 2]
+            L = math.sqrt(ex * ex + ey * ey + ez * ez)
+            k_i = 1.0 - bond_damage[b] if has_damage else 1.0
+            k_j = 1.0 - bond_damage[rb] if has_damage else 1.0
+            e = L - z
+            ext_np1[b] = e
+            t_i, edb_np1[b] = visco_t(k_i, e, ext_n[b], z, theta_n[i], theta[i], c_i, k1_i, k2_i, decay, beta, edb_n[b])
+            c_j, k1_j, k2_j = visco_coefficients(m[j], theta[j], K, mu, lam_i)
+            t_j, _ = visco_t(k_j, L - zeta[rb], ext_n[rb], zeta[rb], theta_n[j], theta[j], c_j, k1_j, k2_j, decay, beta, edb_n[rb])
+            if L > 0.0:
+                s = ((t_i + t_j) * volume[j]) / L
+                fx += s * ex
+                fy += s * ey
+                fz += s * ez
+        f[i, 0] = fx
+        f[i, 1] = fy
+        f[i, 2] = fz
+
+
+def relaxation_constants(tau: float, dt: float) -> tuple[float, float]:
+    """(decay, beta) of the back-extension update over a step dt (T) for relaxation time tau:
+    decay = exp(-dt / tau), beta = 1 - (tau / dt)(1 - decay), exact for extensions linear in
+    time over the step. dt <= 0 (an evaluation outside a time step) gives the limit (1, 0): no
+    time passes, so the back extension does not move."""
+    if not dt > 0.0:
+        return 1.0, 0.0
+    c1 = tau / dt
+    decay = math.exp(-1.0 / c1)
+    return decay, 1.0 - c1 * (1.0 - decay)
+
+
+# ------------------------------------------------------------------------------------------------
+# parameters and the shared wiring
+# ------------------------------------------------------------------------------------------------
+class DeviatoricParams(IsotropicElasticParams):
+    """Density and two elastic constants, plus the keys every model of this family shares.
+    ``rejected_keys``: deck keys Peridigm's class refuses for this model (an error even when
+    false or zero)."""
+
+    finite_difference_probe_length: float | None = Field(
+        None, alias="Finite Difference Probe Length", gt=0, description="finite-difference tangent: probe (L); default 1e-6 x the smallest element radius"
+    )
+    rejected_keys: ClassVar[frozenset[str]] = frozenset()
+    model_name: ClassVar[str] = "this material"
+
+    @model_validator(mode="before")
+    @classmethod
+    def _refuse(cls, data: Any) -> Any:
+        if isinstance(data, dict):
+            bad = sorted(k for k in cls.rejected_keys if k in data)
+            if bad:
+                names = ", ".join(repr(k) for k in bad)
+                raise ValueError(f"{names} cannot be given for {cls.model_name} (Peridigm refuses it, whatever its value): remove it")
+        return data
+
+
+def yield_value(yield_stress: float, horizon: float, thickness: float | None = None) -> float:
+    """Peridigm's yield value Y (M^2 L^-7 T^-4, the bound of ||t^d||^2 / 2): 3-D
+    25 sigma_y^2 / (8 pi delta^5), planar (thickness T) 75 sigma_y^2 / (8 pi T delta^4), in
+    Peridigm's operation order."""
+    if thickness is None:
+        return ((((25.0 * yield_stress) * yield_stress) / 8) / math.pi) / math.pow(horizon, 5)
+    return ((((((225.0 / 3.0) * yield_stress) * yield_stress) / 8) / math.pi) / thickness) / math.pow(horizon, 4)
+
+
+class DeviatoricStateMaterial(Material):
+    """Wiring shared by the three models: weighted volume (deck influence function), the
+    two-step dilatation, and the compiled tangents. Subclasses write ``force_state``."""
+
+    precompute_fields = ()  # the force state of i's bonds reads only i's own theta and m
+    needs_horizon: ClassVar[bool] = True
+
+    def __init__(self, params, *, horizon: float | None, options=None) -> None:
+        super().__init__(params, horizon=horizon, options=options)
+        if self.needs_horizon and horizon is None:
+            raise ValueError(f"{self.name!r} needs a constant block horizon (a number): its yield value depends on it")
+        self.K, self.mu = params.moduli()
+        self.omega_table = EMPTY
+
+    @property
+    def density(self) -> float:
+        return float(self.params.density)
+
+    @property
+    def bulk_modulus(self) -> float:
+        return float(self.K)
+
+    def fields(self) -> list[FieldSpec]:
+        return [
+            FieldSpec("Weighted_Volume", Relation.ELEMENT, 1, Temporal.CONSTANT, units="L^5"),
+            FieldSpec("Dilatation", Relation.ELEMENT, 1, Temporal.TWO_STEP),
+        ]
+
+    def _common(self, block: BlockView):
+        return block.influence.kind, block.horizon, self.omega_table
+
+    @staticmethod
+    def _damage(block: BlockView) -> np.ndarray:
+        return block.fields.get("Bond_Damage", EMPTY)
+
+    def initialize(self, block: BlockView) -> None:
+        s, nl = block.fields, block.bonds
+        if block.influence.needs_table:
+            self.omega_table = block.influence.table_for(nl.offsets, nl.neighbors, s["Model_Coordinates"], np.arange(block.start, block.stop), block.horizon)
+        kind, delta, table = self._common(block)
+        weighted_volume_kernel(block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Volume"], kind, delta, table, s["Weighted_Volume"])
+
+    def precompute(self, block: BlockView) -> None:
+        s, nl = block.fields, block.bonds
+        kind, delta, table = self._common(block)
+        dilatation_kernel(
+            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], s["Volume"], s["Weighted_Volume"],
+            kind, delta, table, self._damage(block), s["Dilatation"],
+        )
+
+    def _reverse(self, block: BlockView) -> np.ndarray | None:
+        """The reverse-bond index when the fused kernel can compute both ends of the view's
+        bonds here: every neighbour owned locally (the far end's bond state lives on its
+        owner's rank) and every family symmetric; else None (the engine's gather is used)."""
+        key = (block.start, block.stop)
+        cache = self.__dict__.setdefault("_reverse_cache", {})
+        if key not in cache:
+            nl = block.bonds
+            lo, hi = int(nl.offsets[block.start]), int(nl.offsets[block.stop])
+            ok = block.closed and (hi == lo or int(nl.neighbors[lo:hi].max()) < block.num_owned)
+            rev = nl.reverse() if ok else None
+            cache[key] = rev if rev is not None and (hi == lo or int(rev[lo:hi].min()) >= 0) else None
+        return cache[key]
+
+    @staticmethod
+    def _points(block: BlockView, target) -> np.ndarray:
+        """The block's points in Peridigm's evaluation order."""
+        pts = np.arange(block.start, block.stop)
+        return pts[np.argsort(target.eval_rank[pts], kind="stable")]
+
+    @staticmethod
+    def _max_degree(block: BlockView) -> int:
+        deg = np.diff(block.bonds.offsets[block.start : block.stop + 1])
+        return int(deg.max()) if deg.size else 0
+
+    @staticmethod
+    def _batch(block: BlockView) -> int:
+        """Local tangent blocks computed in parallel at a time."""
+        import numba
+
+        from .deviatoric_tangents import BATCH_PER_THREAD
+
+        return max(1, min(block.stop - block.start, BATCH_PER_THREAD * numba.get_num_threads()))
+
+    def _fd_tangent(self, block: BlockView, target, model: int, prm: np.ndarray, scf: np.ndarray, bond_n, bond_n2, point_n) -> bool:
+        """Peridigm's central finite differences, compiled
+        (:func:`peridyn.materials.deviatoric_tangents.fd_tangent_kernel`)."""
+        from .deviatoric_tangents import fd_tangent_kernel
+
+        s, nl = block.fields, block.bonds
+        kind, delta, table = self._common(block)
+        eps = target.probe_length
+        if eps is None:
+            raise ValueError(f"{self.name}: the finite-difference tangent needs a probe length")
+        T = target
+        fd_tangent_kernel(
+            model, self._points(block, target), nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], s["Volume"], s["Weighted_Volume"],
+            kind, delta, table, self._damage(block), self.K, self.mu, prm, scf, bond_n, bond_n2, point_n, float(eps),
+            T.row_of_local, T.nrows, T.indptr, T.indices, T.data, max(self._max_degree(block), 1), self._batch(block),
+        )
+        return True
