@@ -30,28 +30,51 @@ Directions (``Direction > Method``):
   ``AztecOO Preconditioner Iterations`` GMRES iterations on the tangent with the Aztec
   preconditioner, as NOX applies an AztecOO preconditioner.
 
+Nonlinear solvers (``Nonlinear Solver``): ``Line Search Based`` (a direction, then a line
+search) or ``Inexact Trust Region Based`` (NOX's dogleg / inexact-Newton trust region with the
+``Trust Region`` options, :mod:`peridyn.solvers.trust_region`; needs the tangent as Jacobian:
+the Cauchy direction uses J^T F).
+
 Line searches (``Line Search > Method``): ``Full Step``; ``Polynomial`` (NOX's: step 1, then
 quadratic/cubic backtracking on 0.5 ||F||^2 with the Armijo-Goldstein condition, slope F.(J d));
 ``Backtrack`` (halving); ``NonlinearCG`` (one secant step -(F.d)/(d.J d)).
+
+Every GMRES solve is AztecOO's with its safeguards (:mod:`peridyn.solvers.aztecoo`): it stops
+when the Hessenberg condition estimate passes ``Ill-Conditioning Threshold`` (1e11), which keeps
+the null-space part of a singular tangent (a body free to move) at round-off size.
 """
 from __future__ import annotations
 
-import difflib
 import logging
 import math
 import time as _time
-from typing import Any, Literal
 
 import numpy as np
-from pydantic import ConfigDict, Field, model_validator
 
+from ..core.errors import ExitCode, PeridynError
 from ..core.interfaces import Solver
-from ..core.params import ModelParams
-from ..core.errors import PeridynError, ExitCode
-from .common import SolverSection
-from .linear import aztec_gmres, gdot, gnorm
-from .newton import ImplicitProblem, load_times, planned_load_steps, solver_stats, threads_for
-from .quasistatic import LoadStepKeys
+from .aztecoo import aztecoo_gmres
+from .linear import gdot, gnorm
+from .newton import (
+    ImplicitProblem,
+    load_times,
+    planned_load_steps,
+    solver_stats,
+    threads_for,
+)
+from .nox_params import (  # noqa: F401 (re-exported)
+    NOX_OTHER_KEYS,
+    NOXLinearSolverParams,
+    NOXQuasiStaticParams,
+    NOXQuasiStaticSection,
+)
+from .trust_region import (
+    ForcingTermOptions,
+    TransposeProduct,
+    TrustRegionError,
+    TrustRegionOptions,
+    TrustRegionSolver,
+)
 
 log = logging.getLogger("peridyn.solver")
 
@@ -60,169 +83,6 @@ class NOXConvergenceError(PeridynError):
     """A NOX load step did not converge (Peridigm aborts the run)."""
 
     exit_code = ExitCode.UNSTABLE
-
-
-# ------------------------------------------------------------------------------------------------
-# parameters: the NOX option trees are accepted; the keys that change what runs are validated
-# ------------------------------------------------------------------------------------------------
-#: bounds on work multipliers, far above any useful value: a larger count is a typo that would run
-#: for ever (iterations, sweeps) or allocate without bound (Krylov vectors of every unknown)
-MAX_ITERATIONS = 1_000_000
-MAX_SWEEPS = 1_000
-MAX_KRYLOV_SPACE = 10_000
-
-#: NOX, AztecOO and Ifpack options Peridigm decks carry that peridyn accepts without using them
-#: (a key close to one of these, or to a key peridyn uses, is taken for a typo)
-NOX_OTHER_KEYS = frozenset({
-    "Maximum Step", "Recovery Step Type", "Sufficient Decrease", "Interval Width", "Curvature Condition",
-    "Optimize Slope Calculation", "Allowed Relative Increase", "Use Counters", "Throw Error on Prec Failure",
-    "RCM Reordering", "Graph Fill", "Overlap", "Ill-Conditioning Threshold", "Fill Factor", "Drop Tolerance",
-    "Preconditioner Operator", "Output Frequency", "Output Solver Details", "Output Processor",
-    "Output Precision", "Output Information", "Output Stream", "Error Stream", "Compute Scaling Manually",
-    "Preconditioner Reuse Policy", "Max Age Of Prec", "Restart Frequency", "Reduction Factor",
-    "Max Backtrack Iterations", "Minimum Step", "Default Step", "Recovery Step", "Max Iters",
-})
-
-
-class _OptionTree(ModelParams):
-    """A NOX/AztecOO option list: the keys below are validated, other NOX keys are accepted
-    with a warning that peridyn does not use them; a key that looks like a mistyped known key
-    (``Max Iteration`` for ``Max Iterations``) is an error."""
-
-    model_config = ConfigDict(frozen=True, extra="allow", populate_by_name=True, allow_inf_nan=False)
-
-    @model_validator(mode="after")
-    def _unknown_keys(self):
-        extra = [k for k in (self.model_extra or {}) if k not in NOX_OTHER_KEYS]
-        if not extra:
-            return self
-        known = self.deck_names() + sorted(NOX_OTHER_KEYS)
-        for key in extra:
-            close = difflib.get_close_matches(str(key), known, n=1, cutoff=0.85)
-            if close:
-                raise ValueError(f"unknown key {key!r}: did you mean {close[0]!r}?")
-        log.warning("%s: %s not used by peridyn (accepted as NOX options)", type(self).__name__.removeprefix("NOX").removesuffix("Params"),
-                    ", ".join(repr(k) for k in extra))
-        return self
-
-
-class NOXLinearSolverParams(_OptionTree):
-    jacobian_operator: Literal["Matrix-Free", "Have Jacobian", "Finite Difference", "Use Jacobian"] | None = Field(
-        None, alias="Jacobian Operator", description="Matrix-Free: Jacobian-free Newton-Krylov (with Peridigm Preconditioner Block 3x3 or None)"
-    )
-    preconditioner: Literal["None", "AztecOO", "User Defined", "Ifpack", "New Ifpack", "ML"] = Field("None", alias="Preconditioner")
-    aztec_solver: Literal["GMRES"] = Field("GMRES", alias="Aztec Solver", description="Krylov method (GMRES only)")
-    max_iterations: int = Field(400, alias="Max Iterations", ge=1, le=MAX_ITERATIONS)
-    tolerance: float = Field(1.0e-10, alias="Tolerance", gt=0, lt=1)
-    kspace: int = Field(300, alias="Size of Krylov Subspace", ge=1, le=MAX_KRYLOV_SPACE)
-    orthogonalization: Literal["Classical", "Modified"] = Field("Classical", alias="Orthogonalization")
-    convergence_test: Literal["r0"] = Field("r0", alias="Convergence Test")
-    zero_initial_guess: bool = Field(False, alias="Zero Initial Guess")
-    aztec_preconditioner: Literal["ilu", "ilut", "Jacobi", "Symmetric Gauss-Seidel", "Polynomial", "Least-squares Polynomial"] = Field(
-        "ilu", alias="Aztec Preconditioner"
-    )
-    steps: int = Field(3, alias="Steps", ge=1, le=MAX_SWEEPS, description="Jacobi sweeps of the Aztec preconditioner")
-    preconditioner_iterations: int = Field(1, alias="AztecOO Preconditioner Iterations", ge=1, le=MAX_SWEEPS)
-
-
-class NOXNewtonParams(_OptionTree):
-    forcing_term_method: Literal["Constant", "Type 1", "Type 2"] = Field("Constant", alias="Forcing Term Method")
-    forcing_term_initial_tolerance: float = Field(1.0e-4, alias="Forcing Term Initial Tolerance", gt=0, lt=1)
-    forcing_term_minimum_tolerance: float = Field(1.0e-6, alias="Forcing Term Minimum Tolerance", gt=0, lt=1)
-    forcing_term_maximum_tolerance: float = Field(0.01, alias="Forcing Term Maximum Tolerance", gt=0, lt=1)
-    forcing_term_alpha: float = Field(1.5, alias="Forcing Term Alpha", gt=0)
-    forcing_term_gamma: float = Field(0.9, alias="Forcing Term Gamma", gt=0)
-    rescue_bad_newton_solve: bool = Field(True, alias="Rescue Bad Newton Solve")
-    linear_solver: NOXLinearSolverParams = Field(default_factory=NOXLinearSolverParams, alias="Linear Solver")
-
-
-class NOXNonlinearCGParams(_OptionTree):
-    restart_frequency: int = Field(10, alias="Restart Frequency", ge=1)
-    precondition: Literal["On", "Off"] = Field("Off", alias="Precondition")
-    orthogonalize: Literal["Fletcher-Reeves", "Polak-Ribiere"] = Field("Fletcher-Reeves", alias="Orthogonalize")
-    update_jacobian: int = Field(1, alias="Update Jacobian", ge=1, description="rebuild the tangent every this many tangent requests")
-    linear_solver: NOXLinearSolverParams = Field(default_factory=NOXLinearSolverParams, alias="Linear Solver")
-
-
-class NOXDirectionParams(_OptionTree):
-    method: Literal["Newton", "NonlinearCG"] = Field(alias="Method", description="Newton or NonlinearCG (what Peridigm supports)")
-    newton: NOXNewtonParams = Field(default_factory=NOXNewtonParams, alias="Newton")
-    nonlinear_cg: NOXNonlinearCGParams = Field(default_factory=NOXNonlinearCGParams, alias="Nonlinear CG")
-
-
-class NOXPolynomialParams(_OptionTree):
-    default_step: float = Field(1.0, alias="Default Step", gt=0)
-    max_iters: int = Field(100, alias="Max Iters", ge=1, le=MAX_ITERATIONS)
-    minimum_step: float = Field(1.0e-12, alias="Minimum Step", gt=0)
-    recovery_step: float | None = Field(None, alias="Recovery Step", gt=0)
-    interpolation_type: Literal["Cubic", "Quadratic", "Quadratic3"] = Field("Cubic", alias="Interpolation Type")
-    sufficient_decrease_condition: Literal["Armijo-Goldstein", "Ared/Pred", "None"] = Field("Armijo-Goldstein", alias="Sufficient Decrease Condition")
-    alpha_factor: float = Field(1.0e-4, alias="Alpha Factor", gt=0, lt=1)
-    min_bounds_factor: float = Field(0.1, alias="Min Bounds Factor", gt=0, lt=1)
-    max_bounds_factor: float = Field(0.5, alias="Max Bounds Factor", gt=0, le=1)
-    force_interpolation: bool = Field(False, alias="Force Interpolation")
-
-
-class NOXLineSearchParams(_OptionTree):
-    method: Literal["Full Step", "Backtrack", "Polynomial", "NonlinearCG", "More'-Thuente"] = Field("Full Step", alias="Method")
-    polynomial: NOXPolynomialParams = Field(default_factory=NOXPolynomialParams, alias="Polynomial")
-
-
-class NOXQuasiStaticParams(LoadStepKeys):
-    nonlinear_solver: Literal["Line Search Based"] = Field("Line Search Based", alias="Nonlinear Solver", description="NOX solver (Line Search Based)")
-    max_solver_iterations: int = Field(50, alias="Max Solver Iterations", ge=1, le=MAX_ITERATIONS, description="NOX steps per load step before the run fails")
-    max_age_of_prec: int = Field(200, alias="Max Age Of Prec", ge=1, description="matrix-free mode: uses of the block preconditioner before it is rebuilt")
-    preconditioner_reuse_policy: Literal["Reuse", "Rebuild", "Recompute"] | None = Field(None, alias="Preconditioner Reuse Policy")
-    verbose: bool = Field(False, alias="Verbose", description="accepted; use --verbose")
-    direction: NOXDirectionParams = Field(alias="Direction", description="NOX direction (Method: Newton or NonlinearCG)")
-    line_search: NOXLineSearchParams = Field(default_factory=NOXLineSearchParams, alias="Line Search")
-    printing: dict[str, Any] | None = Field(None, alias="Printing", description="accepted (NOX printing options)")
-    solver_options: dict[str, Any] | None = Field(None, alias="Solver Options", description="accepted (NOX solver options)")
-    status_tests: dict[str, Any] | None = Field(None, alias="Status Tests", description="accepted; Peridigm builds its own status tests")
-
-
-class NOXQuasiStaticSection(SolverSection):
-    nox: NOXQuasiStaticParams = Field(alias="NOXQuasiStatic", description="NOX-driven load-stepped static equilibrium")
-    peridigm_preconditioner: Literal["Full Tangent", "Block 3x3", "None"] | None = Field(
-        None, alias="Peridigm Preconditioner", description="tangent Peridigm builds: Full Tangent (default), Block 3x3 or None (both: 3x3 diagonal blocks)"
-    )
-    jacobian_diagnostics: bool = Field(False, alias="Jacobian Diagnostics", description="accepted")
-    probe_length: float | None = Field(
-        None, alias="Finite Difference Probe Length", gt=0, description="finite-difference tangent probe (L); default 1e-6 x the smallest element radius"
-    )
-
-    @model_validator(mode="after")
-    def _check(self):
-        q = self.nox
-        if not ((self.given("final_time") and q.number_of_load_steps is not None) or q.time_steps is not None):
-            raise ValueError(
-                "no load steps: give 'Final Time' in the solver section with 'NOXQuasiStatic > Number of Load Steps', or 'NOXQuasiStatic > Time Steps'"
-            )
-        if self.matrix_free:
-            lin = q.direction.newton.linear_solver
-            if lin.preconditioner not in ("User Defined", "None"):
-                raise ValueError(
-                    "NOXQuasiStatic > Direction > Newton > Linear Solver > Preconditioner must be 'User Defined' or 'None' with a Matrix-Free "
-                    f"Jacobian and the Peridigm {self.peridigm_preconditioner} preconditioner (got {lin.preconditioner!r})"
-                )
-            if q.preconditioner_reuse_policy not in (None, "Reuse"):
-                raise ValueError("NOXQuasiStatic > Preconditioner Reuse Policy must be 'Reuse' for Jacobian-free Newton-Krylov")
-        if q.line_search.method == "More'-Thuente":
-            raise ValueError("NOXQuasiStatic > Line Search > Method 'More'-Thuente' is not supported; use Polynomial, Backtrack, Full Step or NonlinearCG")
-        return self
-
-    @property
-    def block_tangent(self) -> bool:
-        return self.peridigm_preconditioner in ("Block 3x3", "None")
-
-    @property
-    def linear_params(self) -> NOXLinearSolverParams:
-        d = self.nox.direction
-        return d.newton.linear_solver if d.method == "Newton" else d.nonlinear_cg.linear_solver
-
-    @property
-    def matrix_free(self) -> bool:
-        return self.nox.direction.method == "Newton" and self.linear_params.jacobian_operator == "Matrix-Free" and self.block_tangent
 
 
 # ------------------------------------------------------------------------------------------------
@@ -273,6 +133,7 @@ class NOXRun:
         self.v_bc = np.zeros((self.n, 3))
         self.jacobian_requests = 0
         self.linear_iterations = 0
+        self.trust_region_counters = [0, 0, 0, 0, 0]  # Newton, Cauchy, dogleg steps, inner iterations, recovery steps
         self.comm = self.problem.comm  # None serially
 
     # -- reductions over ranks (numpy's serially) -----------------------------------------------
@@ -388,7 +249,10 @@ class NOXRun:
         # NOX's Epetra group zeroes the Newton vector, solves J x = F and negates x; with a
         # Jacobian-free operator J(-w) != -J(w), so the sign of the right-hand side matters
         tol = self.forcing_tolerance()
-        res = aztec_gmres(matvec, F, None, tol, lin.kspace, lin.max_iterations, precond, classical=lin.orthogonalization == "Classical", comm=self.comm)
+        res = aztecoo_gmres(
+            matvec, F, None, tol, lin.kspace, lin.max_iterations, precond, classical=lin.orthogonalization == "Classical", comm=self.comm,
+            ill_cond_thresh=lin.ill_conditioning_threshold,
+        )
         res.x = -res.x
         self.linear_iterations += res.iterations
         if not res.converged:
@@ -417,7 +281,10 @@ class NOXRun:
             if lin.preconditioner == "None":
                 z = F.copy()
             else:
-                z = aztec_gmres(T.matvec, F, None, 0.0, lin.kspace, lin.preconditioner_iterations, precond, classical=lin.orthogonalization == "Classical", comm=self.comm).x
+                z = aztecoo_gmres(
+                    T.matvec, F, None, 0.0, lin.kspace, lin.preconditioner_iterations, precond, classical=lin.orthogonalization == "Classical",
+                    comm=self.comm, ill_cond_thresh=lin.ill_conditioning_threshold,
+                ).x
         else:
             z = F.copy()
         d = -z
@@ -515,8 +382,7 @@ class NOXRun:
                     failed = True
                     break
                 temp = -slope / (2.0 * b) if abs(a) < 1.0e-12 else (-b + math.sqrt(disc)) / (3.0 * a)
-                if temp > 0.5 * step:
-                    temp = 0.5 * step
+                temp = min(temp, 0.5 * step)
             prev_step, prevf = step, newf
             if temp < pp.min_bounds_factor * step:
                 step *= pp.min_bounds_factor
@@ -541,6 +407,45 @@ class NOXRun:
 
     # -- one load step --------------------------------------------------------------------------
     def solve_step(self, s: np.ndarray, tol: float, step_index: int) -> np.ndarray:
+        """NOX's solver (a new one per load step, as Peridigm builds it) on F(s) = 0 from s;
+        returns the converged s."""
+        if self.q.nonlinear_solver == "Inexact Trust Region Based":
+            return self.trust_region(s, tol, step_index)
+        return self.line_search_based(s, tol, step_index)
+
+    def trust_region(self, s: np.ndarray, tol: float, step_index: int) -> np.ndarray:
+        """NOX's InexactTrustRegionBased solver (:mod:`peridyn.solvers.trust_region`)."""
+        q = self.q
+        nt = q.direction.newton
+        forcing = ForcingTermOptions(
+            method=nt.forcing_term_method, tolerance=self.p.linear_params.tolerance, initial=nt.forcing_term_initial_tolerance,
+            minimum=nt.forcing_term_minimum_tolerance, maximum=nt.forcing_term_maximum_tolerance, alpha=nt.forcing_term_alpha,
+            gamma=nt.forcing_term_gamma, rescue_bad_newton_solve=nt.rescue_bad_newton_solve,
+        )
+        options = q.trust_region.options()
+        options = TrustRegionOptions(**{**options.__dict__, "cauchy_scaling": q.cauchy_direction.steepest_descent.scaling_type})
+        solver = TrustRegionSolver(_TrustRegionProblem(self), s, options, forcing, lambda F, niter: self.status(F, tol, niter))
+        status = "unconverged"
+        try:
+            while status == "unconverged":
+                # one NOX solver->step() per pass, counted as Peridigm counts it
+                self.sim.nonlinear_iterations += 1
+                status = solver.step()
+                log.debug("%s: load step %d, NOX step %d: ||F|| = %.6g (tolerance %.6g)", self.section, step_index, solver.niter,
+                          float(self._norm(solver.F)), tol)
+        except TrustRegionError as e:
+            raise NOXConvergenceError(f"{self.section}: load step {step_index} (t = {self.sim.time:.6g}): NOX trust region: {e}") from None
+        c = solver.counters
+        self.trust_region_counters = [a + b for a, b in zip(self.trust_region_counters, (c.newton_steps, c.cauchy_steps, c.dogleg_steps, c.inner_iterations, c.recovery_steps))]
+        if status != "converged":
+            raise NOXConvergenceError(
+                f"{self.section}: load step {step_index} (t = {self.sim.time:.6g}) did not converge in {q.max_solver_iterations} NOX steps "
+                f"(||F|| = {float(self._norm(solver.F)):.4g}, tolerance {tol:.4g}); Peridigm aborts here too"
+            )
+        self.set_state(solver.s)  # y and v as at the last residual evaluation
+        return solver.s
+
+    def line_search_based(self, s: np.ndarray, tol: float, step_index: int) -> np.ndarray:
         """NOX's LineSearchBased solver on F(s) = 0 from s; returns the converged s."""
         q = self.q
         self.prec = None
@@ -649,4 +554,56 @@ class NOXRun:
                 steps += 1
         finally:
             sim.delta_u = saved
-            solver_stats(sim, self.section, "NOXQuasiStatic", steps, _time.perf_counter() - wall0, prob, linear_iterations=self.linear_iterations)
+            extra = {}
+            if q.nonlinear_solver == "Inexact Trust Region Based":
+                extra["trust_region"] = dict(zip(("newton_steps", "cauchy_steps", "dogleg_steps", "inner_iterations", "recovery_steps"), self.trust_region_counters))
+            solver_stats(sim, self.section, "NOXQuasiStatic", steps, _time.perf_counter() - wall0, prob, linear_iterations=self.linear_iterations, **extra)
+
+
+class _TrustRegionProblem:
+    """The NOX group the trust region solver works on: Peridigm's residual, its tangent (with
+    the BC modification, not negated) as the Jacobian, AztecOO's GMRES as the Jacobian inverse."""
+
+    def __init__(self, run: NOXRun) -> None:
+        self.run = run
+        self.T = run.problem.tangent
+        self._transpose = TransposeProduct(self.T)
+        self._prec = None
+
+    def F(self, s: np.ndarray) -> np.ndarray:
+        return self.run.F(s)
+
+    def jacobian(self, s: np.ndarray) -> None:
+        self.run.jacobian(s)
+        self._prec = None
+
+    def apply_jacobian(self, d: np.ndarray) -> np.ndarray:
+        return self.T.matvec(d)
+
+    def apply_jacobian_transpose(self, d: np.ndarray) -> np.ndarray:
+        return self._transpose(d)
+
+    def solve(self, rhs: np.ndarray, tol: float, x0: np.ndarray | None) -> tuple[np.ndarray, bool]:
+        run = self.run
+        lin = run.p.linear_params
+        precond = None
+        if lin.preconditioner != "None":
+            if self._prec is None:
+                self._prec = run.aztec_preconditioner()
+            precond = self._prec
+        if lin.zero_initial_guess:
+            x0 = None
+        res = aztecoo_gmres(
+            self.T.matvec, rhs, x0, tol, lin.kspace, lin.max_iterations, precond, classical=lin.orthogonalization == "Classical", comm=run.comm,
+            ill_cond_thresh=lin.ill_conditioning_threshold,
+        )
+        run.linear_iterations += res.iterations
+        if not res.converged:
+            log.debug("%s: %s; using the direction anyway", run.section, res.message)
+        return res.x, res.converged
+
+    def dot(self, a: np.ndarray, b: np.ndarray) -> float:
+        return float(self.run._dot(a, b))
+
+    def norm(self, a: np.ndarray) -> float:
+        return float(self.run._norm(a))

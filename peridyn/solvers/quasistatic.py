@@ -39,12 +39,19 @@ from typing import Literal
 import numpy as np
 from pydantic import Field, field_validator, model_validator
 
+from ..core.errors import InstabilityError
 from ..core.interfaces import Solver
 from ..core.params import ModelParams
-from ..core.errors import InstabilityError
 from .common import SolverSection
 from .linear import METHODS, LinearSolver
-from .newton import ImplicitProblem, check_time_steps, load_times, planned_load_steps, solver_stats, threads_for
+from .newton import (
+    ImplicitProblem,
+    check_time_steps,
+    load_times,
+    planned_load_steps,
+    solver_stats,
+    threads_for,
+)
 
 log = logging.getLogger("peridyn.solver")
 
@@ -124,6 +131,36 @@ class QuasiStaticSection(SolverSection):
                 "no load steps: give 'Final Time' in the solver section with 'QuasiStatic > Number of Load Steps', or 'QuasiStatic > Time Steps'"
             )
         return self
+
+
+def halve_load_step(times: list[float], step: int, t_prev: float, dt: float) -> None:
+    """Adaptive load stepping after a failed step: insert t_prev + dt/2.0 before target ``step``
+    (the step is retried with the shorter increment from the same t_prev)."""
+    times.insert(step, t_prev + dt / 2.0)
+
+
+def reduce_remaining_load_steps(times: list[float], step: int, t_cur: float, dt: float, t_final: float) -> None:
+    """``Reduce all remaining load steps``, after a step that needed halvings converged: the
+    later times become t_cur + (i+1) dt, appended while the last one is below the original final
+    time (so the last may pass it, as in Peridigm)."""
+    del times[step + 1 :]
+    i = 0
+    while times[step + i] < t_final:
+        times.append(t_cur + (i + 1) * dt)
+        i += 1
+
+
+def multiply_output_frequency(writers, multiplier: float) -> None:
+    """Peridigm's ``multiplyOutputFrequency``: ``frequency *= multiplier`` on an int, i.e. the
+    product truncated toward zero, for every writer."""
+    for w in writers:
+        w.frequency = int(w.frequency * multiplier)
+
+
+def change_output_frequency(writers, frequency: int) -> None:
+    """Peridigm's ``changeOutputFrequency`` (Switch to Verlet's ``Output Frequency``)."""
+    for w in writers:
+        w.frequency = frequency
 
 
 def fmod_zero(a: int, b: int) -> bool:
@@ -365,18 +402,12 @@ class QuasiStaticRun:
                 if failed_qs:
                     break
                 if adaptive is not None and retry:
-                    times.insert(step, t_prev + self.dt / 2.0)
+                    halve_load_step(times, step, t_prev, self.dt)
                     if adaptive.adaptive_output_frequency:
-                        for w in sim.outputs.writers:
-                            if w.frequency > 0:
-                                w.frequency = int(w.frequency * 2.0)
+                        multiply_output_frequency(sim.outputs.writers, 2.0)
                     continue  # same index, now the shorter step
                 if adaptive is not None and adaptive.reduce_all_remaining and convergence_failed_in_step:
-                    del times[step + 1 :]
-                    i = 0
-                    while times[step + i] < t_final:
-                        times.append(t_cur + (i + 1) * self.dt)
-                        i += 1
+                    reduce_remaining_load_steps(times, step, t_cur, self.dt, t_final)
                 if it >= q.maximum_solver_iterations and q.maximum_solver_iterations > 0:
                     log.info("%s: load step %d used the maximum number of nonlinear iterations", self.section, step)
                 convergence_failed_in_step = False
@@ -424,8 +455,7 @@ class QuasiStaticRun:
         verlet = {"Fixed dt": sw.fixed_dt} if sw.fixed_dt is not None else {"Safety Factor": sw.safety_factor if sw.safety_factor is not None else 1.0}
         params = VerletSection.model_validate({"Initial Time": t_start, "Final Time": t_final, "Verlet": verlet})
         if sw.output_frequency is not None:
-            for w in sim.outputs.writers:
-                w.frequency = sw.output_frequency
+            change_output_frequency(sim.outputs.writers, sw.output_frequency)
         n = self.n
         np.add(self.x, self.u, out=self.y)
         self.v[:n] = predictor
