@@ -111,7 +111,9 @@ class QuasiStaticParams(LoadStepKeys):
     belos_print_status: bool = Field(False, alias="Belos Print Status", description="accepted; use --verbose")
     adaptive: AdaptiveLoadSteppingParams | None = Field(None, alias="Adaptive Load-Stepping", description="halve load steps that do not converge")
     linear_solver: Literal[METHODS] = Field(  # type: ignore[valid-type]
-        "Belos", alias="Linear Solver", description="peridyn: Belos (Peridigm's CG/GMRES, default), Direct (sparse LU), AMG (pyamg-preconditioned CG), Auto"
+        "Adaptive", alias="Linear Solver",
+        description="peridyn: Adaptive (default: Peridigm's CG while it converges within 300 iterations, then AMG-preconditioned CG), "
+        "Belos (always Peridigm's CG/GMRES), Direct (sparse LU), AMG (AMG-preconditioned CG), Auto",
     )
     linear_solver_tolerance: float = Field(1.0e-8, alias="Linear Solver Tolerance", gt=0, lt=1, description="peridyn: relative tolerance of the AMG solver")
     ignored_keys = frozenset({"Verbose"})
@@ -207,8 +209,8 @@ class QuasiStaticRun:
         q = self.q
         self.linear = LinearSolver(
             method=q.linear_solver,
-            tol=q.belos_relative_tolerance if q.linear_solver == "Belos" else q.linear_solver_tolerance,
-            maxiter=q.belos_maximum_iterations if q.linear_solver == "Belos" else q.belos_maximum_iterations or 2000,
+            tol=q.belos_relative_tolerance if q.linear_solver in ("Belos", "Adaptive") else q.linear_solver_tolerance,
+            maxiter=q.belos_maximum_iterations if q.linear_solver in ("Belos", "Adaptive") else q.belos_maximum_iterations or 2000,
             belos_method=q.belos_linear_solver,
             symmetric=True,
             coords=T.to_rows(self.x).reshape(n, 3),

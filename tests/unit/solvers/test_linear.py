@@ -107,3 +107,35 @@ def test_reductions_without_a_communicator_are_numpys():
         assert gnorm(comm, a) == np.linalg.norm(a)
         v = np.arange(3.0)
         assert gsum(comm, v) is v
+
+
+def test_adaptive_is_peridigms_cg_while_it_converges_quickly(system):
+    T, b, x = system
+    belos = LinearSolver("Belos", tol=1e-4)
+    belos.set_matrix(T)
+    adaptive = LinearSolver("Adaptive", tol=1e-4, coords=x)
+    adaptive.set_matrix(T)
+    rb, ra = belos.solve(b), adaptive.solve(b)
+    assert ra.iterations == rb.iterations
+    np.testing.assert_array_equal(ra.x, rb.x)
+    assert not adaptive.switched
+
+
+def test_adaptive_switches_to_amg_when_cg_is_slow_and_stays_there(system, monkeypatch, caplog):
+    import peridyn.solvers.linear as L
+
+    T, b, x = system
+    plain = belos_cg(T.matvec, b, 1e-8, 10 * len(b))
+    monkeypatch.setattr(L, "ADAPTIVE_BELOS_ITERATIONS", 3)
+    s = LinearSolver("Adaptive", tol=1e-8, coords=x)
+    s.set_matrix(T)
+    with caplog.at_level("INFO", logger="peridyn.solver"):
+        res = s.solve(b)
+    assert s.switched and "AMG-preconditioned" in caplog.text
+    assert res.converged
+    assert np.linalg.norm(b - T.matvec(res.x)) <= 1e-7 * np.linalg.norm(b)
+    s.set_matrix(T)  # a new tangent: the run keeps the AMG solver
+    again = s.solve(b)
+    assert s._chosen == "AMG" and again.converged
+    # the preconditioner earns its keep: far fewer iterations than plain CG on the same system
+    assert again.iterations < plain.iterations / 2
