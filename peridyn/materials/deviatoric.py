@@ -342,6 +342,9 @@ def relaxation_constants(tau: float, dt: float) -> tuple[float, float]:
 # ------------------------------------------------------------------------------------------------
 # parameters and the shared wiring
 # ------------------------------------------------------------------------------------------------
+BATCH_PER_THREAD = 4  # local tangent blocks per thread and batch (each up to (3 (max_degree + 1))^2 doubles)
+
+
 class DeviatoricParams(IsotropicElasticParams):
     """Density and two elastic constants, plus the keys every model of this family shares.
     ``rejected_keys``: deck keys Peridigm's class refuses for this model (an error even when
@@ -453,24 +456,4 @@ class DeviatoricStateMaterial(Material):
         """Local tangent blocks computed in parallel at a time."""
         import numba
 
-        from .deviatoric_tangents import BATCH_PER_THREAD
-
         return max(1, min(block.stop - block.start, BATCH_PER_THREAD * numba.get_num_threads()))
-
-    def _fd_tangent(self, block: BlockView, target, model: int, prm: np.ndarray, scf: np.ndarray, bond_n, bond_n2, point_n) -> bool:
-        """Peridigm's central finite differences, compiled
-        (:func:`peridyn.materials.deviatoric_tangents.fd_tangent_kernel`)."""
-        from .deviatoric_tangents import fd_tangent_kernel
-
-        s, nl = block.fields, block.bonds
-        kind, delta, table = self._common(block)
-        eps = target.probe_length
-        if eps is None:
-            raise ValueError(f"{self.name}: the finite-difference tangent needs a probe length")
-        T = target
-        fd_tangent_kernel(
-            model, self._points(block, target), nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], s["Volume"], s["Weighted_Volume"],
-            kind, delta, table, self._damage(block), self.K, self.mu, prm, scf, bond_n, bond_n2, point_n, float(eps),
-            T.row_of_local, T.nrows, T.indptr, T.indices, T.data, max(self._max_degree(block), 1), self._batch(block),
-        )
-        return True

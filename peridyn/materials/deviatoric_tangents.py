@@ -30,8 +30,6 @@ from .deviatoric import (
 )
 from .tangents import scatter_local_kernel
 
-BATCH_PER_THREAD = 4  # local blocks per thread and batch (each up to (3 (max_degree + 1))^2 doubles)
-
 
 @njit(cache=True, error_model="numpy")
 def _local_force(i, offsets, neighbors, y, volume, t, out):
@@ -307,3 +305,20 @@ def plastic_tangent_kernel(
                            K, mu, scf, Y, H, hardening, edp_n, lam_n, buf[k])
         for k in range(count):
             _scatter(pts[first + k], offsets, neighbors, buf[k], row_of_local, nrows, indptr, indices, data)
+
+
+def fd_tangent(self, block, target, model: int, prm: np.ndarray, scf: np.ndarray, bond_n, bond_n2, point_n) -> bool:
+    """Peridigm's central finite differences of a deviatoric-state material ``self`` (compiled,
+    :func:`fd_tangent_kernel`)."""
+    s, nl = block.fields, block.bonds
+    kind, delta, table = self._common(block)
+    eps = target.probe_length
+    if eps is None:
+        raise ValueError(f"{self.name}: the finite-difference tangent needs a probe length")
+    T = target
+    fd_tangent_kernel(
+        model, self._points(block, target), nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], s["Volume"], s["Weighted_Volume"],
+        kind, delta, table, self._damage(block), self.K, self.mu, prm, scf, bond_n, bond_n2, point_n, float(eps),
+        T.row_of_local, T.nrows, T.indptr, T.indices, T.data, max(self._max_degree(block), 1), self._batch(block),
+    )
+    return True

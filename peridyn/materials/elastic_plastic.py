@@ -129,7 +129,9 @@ class ElasticPlastic(DeviatoricStateMaterial):
         edp_n, lam_n = s.n("Deviatoric_Plastic_Extension"), s.n("Lambda")
         if not self.params.apply_ad_jacobian:
             prm = np.array([self.Y, self.H])
-            return self._fd_tangent(block, target, self._fd_model, prm, self._scf(block), edp_n, edp_n, lam_n)
+            from .deviatoric_tangents import fd_tangent as _fd_tangent
+
+            return _fd_tangent(self, block, target, self._fd_model, prm, self._scf(block), edp_n, edp_n, lam_n)
         from .deviatoric_tangents import plastic_tangent_kernel
 
         kind, delta, table = self._common(block)

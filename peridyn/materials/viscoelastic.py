@@ -89,6 +89,8 @@ class Viscoelastic(DeviatoricStateMaterial):
         s = block.fields
         decay, beta = self._constants(block)
         prm = np.array([float(self.params.lambda_i), decay, beta])
-        return self._fd_tangent(
-            block, target, VISCO, prm, np.zeros(0), s.n("Viscoelastic_Bond_Extension"), s.n("Deviatoric_Back_Extension"), s.n("Dilatation")
+        from .deviatoric_tangents import fd_tangent as _fd_tangent
+
+        return _fd_tangent(
+            self, block, target, VISCO, prm, np.zeros(0), s.n("Viscoelastic_Bond_Extension"), s.n("Deviatoric_Back_Extension"), s.n("Dilatation")
         )
