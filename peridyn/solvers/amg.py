@@ -74,15 +74,20 @@ class AMGPreconditioner:
             self._coarse = lambda b: sub.solve(b, maxiter=1, cycle="V", tol=1e-12)
         self._r = np.empty(self.n)
         self._Ax = np.empty(self.n)
+        self.omega = None
         self.update(A.diagonal())
 
     def update(self, diagonal: np.ndarray) -> None:
-        """Use the current operator (same hierarchy): its diagonal (n,) and a fresh damping."""
+        """Use the current operator (same hierarchy): its diagonal (n,). The damping w comes from
+        the spectral radius of D^-1 A at the first call (a few products; it changes little
+        while the hierarchy stays valid)."""
         if self.levels <= 1:
             return
         d = np.asarray(diagonal, dtype=float)
         safe = np.where(d != 0.0, d, 1.0)
         self.dinv = np.where(d != 0.0, 1.0 / safe, 0.0)
+        if getattr(self, "omega", None) is not None:
+            return
         v = np.random.default_rng(12345).standard_normal(self.n)
         rho = 1.0
         for _ in range(POWER_ITERATIONS):
