@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 from ..core.fields import FieldSpec, Relation
 from ..core.interfaces import Compute
@@ -71,15 +72,38 @@ class Radius(_Constant):
 
 
 class NeighborhoodVolume(_Constant):
-    """V_i + sum_j V_j over the family (L^3)."""
+    """V_i + sum_j w_j over the family (L^3), a sequential sum from V_i (PERIDIGM_MODELS.md §14):
+    w_j = the bond's partial volume (``Compute Element-Horizon Intersections``) or V_j."""
 
     name = "Neighborhood_Volume"
 
     def values(self, sim):
         nl = sim.bonds
         vol = sim.fields["Volume"]
-        owner = np.repeat(np.arange(nl.num_points), nl.counts())
-        return vol + np.bincount(owner, weights=vol[nl.neighbors], minlength=nl.num_points)
+        weights = vol[nl.neighbors]
+        nodes = getattr(sim, "element_nodes", None)
+        if "Neighbor_Volume" in sim.fields:
+            weights = sim.fields["Neighbor_Volume"]
+        elif nodes is not None:  # partial volumes, computed here only (no bond field is kept)
+            from ..geometry.partial_volumes import fill_partial_volumes
+
+            p = sim.deck.discretization.params
+            weights = np.zeros(nl.num_bonds)
+            fill_partial_volumes(sim, nodes, p.intersection_recursion_level, p.intersection_number_of_samples, nv=weights)
+        out = vol[: nl.num_points].copy()
+        sequential_row_sum(nl.offsets, weights, out)
+        return out
+
+
+@njit(cache=True)
+def sequential_row_sum(offsets, weights, out):
+    """out[i] += weights[offsets[i]] + ... in bond order, one addition at a time (Peridigm's
+    order). offsets (n+1,), weights (nb,), out (n,)."""
+    for i in range(offsets.shape[0] - 1):
+        acc = out[i]
+        for b in range(offsets[i], offsets[i + 1]):
+            acc += weights[b]
+        out[i] = acc
 
 
 class NonlinearSolverIterations(Compute):

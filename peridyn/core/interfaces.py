@@ -234,6 +234,11 @@ class DamageModel(ABC):
     def initialize(self, block: BlockView) -> None:
         """Once, before the first force evaluation."""
 
+    def bind_material(self, material: Material) -> None:
+        """Once, at set-up, before ``material.adopt_damage``: the block's material, for models
+        whose rule depends on its constants (e.g. an energy criterion). Raise ValueError for a
+        material the model cannot work with. Default: nothing."""
+
     def bond_rule(self) -> tuple | None:
         """A description of the bond-breaking rule that a material may apply inside its own
         bond loop instead of calling ``update`` (e.g. ``("critical stretch", s_c, copy)``),

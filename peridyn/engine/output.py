@@ -241,6 +241,8 @@ class OutputWriter:
             return
         sim = self.sim
         self.manager.run_computes(self.names)
+        if getattr(sim, "interfaces", None) is not None:  # Interfaces.e first, at this file's step
+            sim.interfaces.write(self.frames + 1, t)
         if self._writer is None:
             self._open()
         nodal = {}

@@ -96,6 +96,11 @@ class Simulation:
         offsets, neighbors = self._build_neighbors(disc, horizon)
         self.timers["neighbor search"] = _time.perf_counter() - t0
         self._order_points(disc, offsets, neighbors, horizon)
+        self.interfaces = None
+        if getattr(dentry.params, "construct_interfaces", False):  # PERIDIGM_MODELS.md §11
+            from ..io.interfaces import setup_interfaces
+
+            self.interfaces = setup_interfaces(self)
         self._create_models()
         self._declare_fields()
         create_conditions(self)
@@ -104,6 +109,10 @@ class Simulation:
         self.outputs = OutputManager(self)
         self._declare_fields_late()
         self._fill_fields(disc)
+        if self.element_nodes is not None:  # the partial-volume bond fields some model declared
+            from ..geometry.partial_volumes import fill_partial_volumes
+
+            fill_partial_volumes(self, self.element_nodes, dentry.params.intersection_recursion_level, dentry.params.intersection_number_of_samples)
         self.contact = None
         if deck.contact is not None:  # contact code is imported only by decks that use it
             from ..contact.manager import ContactManager
@@ -217,12 +226,19 @@ class Simulation:
         self.owner = self._decompose(disc, horizon)
         points = np.nonzero(self.owner == self.comm.rank)[0].astype(np.int64)
         self.owned_mothership = points
+        dentry = self.deck.discretization
+        self.element_nodes = None  # (n, 8, 3) hexahedron nodes: Compute Element-Horizon Intersections
         if disc.neighbor_rule is not None:
             offsets, neighbors = disc.neighbor_rule(points, horizon)
             neighbors = neighbors.astype(np.int32, copy=False)  # 4 bytes per bond from here on
+        elif getattr(dentry.params, "compute_element_horizon_intersections", False):
+            from ..geometry.partial_volumes import intersecting_neighbors
+            from ..io.interfaces import element_hex_nodes
+
+            self.element_nodes = element_hex_nodes(self.deck, disc)
+            offsets, neighbors = intersecting_neighbors(disc.x, horizon, points, self.element_nodes)
         else:
             offsets, neighbors = radius_search(disc.x, horizon, points, dtype=np.int32)
-        dentry = self.deck.discretization
         if dentry.bond_filters:
             from ..geometry.bond_filters import apply_bond_filters, make_filter
 
@@ -305,6 +321,7 @@ class Simulation:
                 dentry = deck.damage_models[entry.damage_model]
                 try:
                     damage = dentry.cls(dentry.params, options={"deck_dir": deck.directory, "path": dentry.path})
+                    damage.bind_material(material)
                 except (ValueError, InputError) as exc:
                     errors.append(exc if isinstance(exc, InputError) else InputError(str(exc), file=deck.file, path=dentry.path))
                     continue

@@ -84,6 +84,36 @@ class ExodusMeshParams(ModelParams):
         alias="Verbose",
         description="Peridigm prints a summary of the mesh file; accepted for compatibility.",
     )
+    construct_interfaces: bool = Field(
+        False,
+        alias="Construct Interfaces",
+        description="Find the faces shared by bonded elements and write them, with their apertures, to "
+        "Interfaces.e (peridyn.io.interfaces).",
+    )
+    compute_element_horizon_intersections: bool = Field(
+        False,
+        alias="Compute Element-Horizon Intersections",
+        description="HEX8 meshes: neighbours are the elements that intersect the horizon sphere, and each "
+        "bond gets the partial volume of its element inside the sphere (peridyn.geometry.partial_volumes).",
+    )
+    intersection_recursion_level: int = Field(
+        2, ge=0, le=8, alias="Element-Horizon Intersection Recursion Level",
+        description="partial volumes: levels of octree refinement of elements cut by the sphere surface",
+    )
+    intersection_number_of_samples: int = Field(
+        2, ge=1, le=16, alias="Element-Horizon Intersection Number Of Samples",
+        description="partial volumes: midpoint samples per direction in each finest cut sub-cell",
+    )
+    intersection_partial_volume_scheme: str = Field(
+        "PV", alias="Element-Horizon Intersection Partial Volume Scheme",
+        description="accepted for compatibility (PV, FV, PDLAMMPS, HHB); peridyn has one quadrature",
+    )
+    intersection_characteristic_element_length: float = Field(
+        0.0, alias="Element-Horizon Intersection Characteristic Element Length", description="accepted for compatibility (L)",
+    )
+    intersection_use_lookup_table: bool = Field(
+        True, alias="Element-Horizon Intersection Use Lookup Table", description="accepted for compatibility",
+    )
 
 
 # ------------------------------------------------------------------------------------------------

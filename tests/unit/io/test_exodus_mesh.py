@@ -277,7 +277,8 @@ def test_params():
     with pytest.raises(ValidationError):
         ExodusMeshParams.model_validate({})
     with pytest.raises(ValidationError):
-        ExodusMeshParams.model_validate({"Input Mesh File": "a.g", "Construct Interfaces": True})
+        ExodusMeshParams.model_validate({"Input Mesh File": "a.g", "Not A Key": True})
+    assert ExodusMeshParams.model_validate({"Input Mesh File": "a.g", "Construct Interfaces": True}).construct_interfaces
     p = ExodusMeshParams.model_validate({"Input Mesh File": "a.g"})
     assert p.store_exodus_mesh is False
 
