@@ -41,7 +41,6 @@ IGNORED_TOP_LEVEL = {
 #: Peridigm sections that peridyn does not implement yet
 UNSUPPORTED_SECTIONS = {
     "Restart": "restart is not supported yet",
-    "Multiphysics": "multiphysics is not supported yet",
 }
 
 
@@ -202,6 +201,7 @@ class Deck:
     data_loader: DataLoaderParams | None
     contact: ContactEntry | None
     registry: Registry = field(repr=False, default=None)
+    multiphysics: bool = False  #: top-level ``Multiphysics: 1``: fluid pressure as a 4th dof (PERIDIGM_MODELS.md §7)
 
     def line(self, path) -> int | None:
         return self.source.line_of(path) if self.source is not None else None
@@ -396,6 +396,7 @@ def parse_deck(source, registry: Registry | None = None) -> Deck:
     if "Contact" in tree:
         contact = _parse_contact(section("Contact"), registry, file, errors, lines)
 
+    multiphysics = _parse_multiphysics(tree, materials, err)
     raise_collected(errors)
     assert disc is not None
     return Deck(
@@ -414,7 +415,25 @@ def parse_deck(source, registry: Registry | None = None) -> Deck:
         data_loader=loader,
         contact=contact,
         registry=registry,
+        multiphysics=multiphysics,
     )
+
+
+def _parse_multiphysics(tree, materials, err) -> bool:
+    """Top-level ``Multiphysics`` (Peridigm: the number of extra dofs, which must be 1); then
+    every material must be a Multiphysics one, and a Multiphysics material needs the flag."""
+    on = "Multiphysics" in tree
+    if on:
+        value = tree["Multiphysics"]
+        if isinstance(value, bool) or not isinstance(value, int) or value != 1:
+            err(f"'Multiphysics' must be 1 (one fluid pressure dof per point), got {value!r}", ("Multiphysics",), "set 'Multiphysics: 1' or remove it")
+    for entry in materials.values():
+        if on and "Multiphysics" not in entry.model:
+            err(f"material model {entry.model!r} is not multiphysics compatible, and the deck sets 'Multiphysics'", entry.path,
+                "use a material whose model name contains 'Multiphysics' (e.g. 'Multiphysics Elastic') in every block")
+        elif not on and "Multiphysics" in entry.model:
+            err(f"material model {entry.model!r} needs multiphysics enabled at the top level of the deck", entry.path, "add 'Multiphysics: 1' at the top level")
+    return on
 
 
 # ------------------------------------------------------------------------------------------------
@@ -470,12 +489,7 @@ def _parse_models(sec, section_name, kind, key, registry, file, errors, lines) -
 
 DISCRETIZATION_CORE_KEYS = ("Type", "Influence Function", "Bond Filters", "Omit Bonds Between Blocks")
 #: Peridigm discretization options peridyn does not implement yet
-DISCRETIZATION_UNSUPPORTED = {
-    "Construct Interfaces": "interface meshes are not supported yet",
-    "Compute Element-Horizon Intersections": "partial volumes (element-horizon intersections) are not supported yet",
-    "Element-Horizon Intersection Recursion Level": "partial volumes (element-horizon intersections) are not supported yet",
-    "Element-Horizon Intersection Number Of Samples": "partial volumes (element-horizon intersections) are not supported yet",
-}
+DISCRETIZATION_UNSUPPORTED: dict[str, str] = {}  # Construct Interfaces, Element-Horizon ...: Exodus keys now
 
 
 def _parse_discretization(raw, registry, file, errors, lines) -> DiscretizationEntry | None:

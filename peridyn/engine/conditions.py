@@ -224,7 +224,45 @@ class BodyForce(BoundaryCondition):
         sim.fields["External_Force_Density"][self.points, self.component] = self.evaluate(t)
 
 
-BUILTIN_CONDITIONS = (InitialVelocity, InitialDisplacement, InitialTemperature, PrescribedDisplacement, PrescribedTemperature, BodyForce)
+class PrescribedFluidPressureU(BoundaryCondition):
+    """Multiphysics (PERIDIGM_MODELS.md §7): the fluid pressure increment of a load step,
+    dp = f(t) - f(t_prev), and its rate p_V = dp / (t - t_prev), on the node set (an increment
+    condition without the constant-value rule of Prescribed Displacement: a constant value gives
+    dp = 0). Its dofs are prescribed in the coupled QuasiStatic solve."""
+
+    name = "PRESCRIBED_FLUID_PRESSURE_U"
+    stage = "kinematic"
+    target = "fluid_pressure"
+    scalar = True
+
+    def apply_kinematic(self, sim: "Simulation", t: float, t_prev: float) -> None:
+        if t == t_prev or "Fluid_Pressure_V" not in sim.fields:
+            return
+        dp = self.evaluate(t) - self.evaluate(t_prev)
+        sim.fields["Fluid_Pressure_V"][self.points] = dp * (1.0 / (t - t_prev))
+        delta_p = getattr(sim, "delta_p", None)
+        if delta_p is not None:
+            delta_p[self.points] = dp
+
+
+class InitialFluidPressureU(BoundaryCondition):
+    """Multiphysics: sets the accumulated fluid pressure p_U once, and p_Y = p_U."""
+
+    name = "INITIAL_FLUID_PRESSURE_U"
+    stage = "initial"
+    target = "fluid_pressure"
+    scalar = True
+
+    def apply_initial(self, sim: "Simulation") -> None:
+        if "Fluid_Pressure_U" not in sim.fields:
+            raise InputError("'Initial Fluid Pressure U' needs a Multiphysics deck (Multiphysics: 1 and Multiphysics materials)",
+                             path=("Boundary Conditions", self.entry_name), fix="remove the condition or enable Multiphysics")
+        sim.fields["Fluid_Pressure_U"][self.points] = self.evaluate(0.0)
+        sim.fields["Fluid_Pressure_Y"][self.points] = sim.fields["Fluid_Pressure_U"][self.points]
+
+
+BUILTIN_CONDITIONS = (InitialVelocity, InitialDisplacement, InitialTemperature, PrescribedDisplacement, PrescribedTemperature, BodyForce,
+                      PrescribedFluidPressureU, InitialFluidPressureU)
 
 
 # ------------------------------------------------------------------------------------------------

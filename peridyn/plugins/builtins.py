@@ -54,6 +54,7 @@ def peridyn_discretizations():
 def peridyn_materials():
     return [
         ("Elastic", "peridyn.materials.elastic:Elastic"),
+        ("Multiphysics Elastic", "peridyn.materials.multiphysics_elastic:MultiphysicsElastic"),
         ("Elastic Bond Based", "peridyn.materials.elastic_bond_based:ElasticBondBased"),
         ("Linear LPS Partial Volume", "peridyn.materials.linear_lps_pv:LinearLPSPartialVolume"),
         ("Elastic Partial Volume", "peridyn.materials.linear_lps_pv:ElasticPartialVolume"),
@@ -117,6 +118,8 @@ def peridyn_boundary_conditions():
         ("PRESCRIBED_DISPLACEMENT", f"{module}:PrescribedDisplacement"),
         ("PRESCRIBED_TEMPERATURE", f"{module}:PrescribedTemperature"),
         ("BODY_FORCE", f"{module}:BodyForce"),
+        ("PRESCRIBED_FLUID_PRESSURE_U", f"{module}:PrescribedFluidPressureU"),
+        ("INITIAL_FLUID_PRESSURE_U", f"{module}:InitialFluidPressureU"),
     ]
 
 

@@ -120,7 +120,8 @@ class Registry:
         if not available:
             return InputError(f"unknown {human} {name!r}: no {human} is installed", file=file, path=path,
                               fix="remove the entry, or install a plugin that provides it")
-        close = difflib.get_close_matches(str(name), available, n=3, cutoff=0.5)
+        close = difflib.get_close_matches(str(name), available, n=3, cutoff=0.5) or difflib.get_close_matches(
+            str(name).upper().strip().replace(" ", "_"), available, n=3, cutoff=0.5)  # names matched as Peridigm tidies them
         hint = f"did you mean {' or '.join(repr(c) for c in close)}? " if close else ""
         names = sorted(available)
         if len(names) <= 6:

@@ -52,22 +52,20 @@ from .newton import (
     solver_stats,
     threads_for,
 )
+from .qs_common import (
+    DAMPED_TANGENT_INTERVAL,
+    FIRST_CANDIDATES,
+    PURE_NEWTON_STEPS,
+    SECOND_CANDIDATES,
+    LoadStepError,
+    change_output_frequency,
+    fmod_zero,
+    halve_load_step,
+    multiply_output_frequency,
+    reduce_remaining_load_steps,
+)
 
 log = logging.getLogger("peridyn.solver")
-
-#: Peridigm's quasiStaticsLineSearch candidate lists
-FIRST_CANDIDATES = (0.1, 0.2, 0.3, 0.5, 0.75, 1.0)
-SECOND_CANDIDATES = tuple(
-    [0.002 * (i + 1) for i in range(25)] + [0.01 * (i + 1) + 0.05 for i in range(15)] + [0.05 * (i + 1) + 0.2 for i in range(6)]
-    + [0.75, 1.0, 1.5, 2.0, 5.0, 10.0]
-)
-PURE_NEWTON_STEPS = 50
-DAMPED_TANGENT_INTERVAL = 8
-
-
-class LoadStepError(InstabilityError):
-    """A QuasiStatic load step did not converge and could not be cut back: the run stops (exit
-    status 3), the output of the converged load steps is kept."""
 
 
 class SwitchToVerletParams(ModelParams):
@@ -124,6 +122,8 @@ class QuasiStaticSection(SolverSection):
     probe_length: float | None = Field(
         None, alias="Finite Difference Probe Length", gt=0, description="finite-difference tangent probe (L); default 1e-6 x the smallest element radius"
     )
+    solve_for_displacement: bool = Field(True, alias="Solve For Displacement", description="unknowns: displacement (with Multiphysics, together with the pressure)")
+    solve_for_pressure: bool = Field(False, alias="Solve For Pressure", description="unknowns: fluid pressure as a fourth dof per point (needs Multiphysics: 1)")
 
     @model_validator(mode="after")
     def _times(self):
@@ -133,41 +133,6 @@ class QuasiStaticSection(SolverSection):
                 "no load steps: give 'Final Time' in the solver section with 'QuasiStatic > Number of Load Steps', or 'QuasiStatic > Time Steps'"
             )
         return self
-
-
-def halve_load_step(times: list[float], step: int, t_prev: float, dt: float) -> None:
-    """Adaptive load stepping after a failed step: insert t_prev + dt/2.0 before target ``step``
-    (the step is retried with the shorter increment from the same t_prev)."""
-    times.insert(step, t_prev + dt / 2.0)
-
-
-def reduce_remaining_load_steps(times: list[float], step: int, t_cur: float, dt: float, t_final: float) -> None:
-    """``Reduce all remaining load steps``, after a step that needed halvings converged: the
-    later times become t_cur + (i+1) dt, appended while the last one is below the original final
-    time (so the last may pass it, as in Peridigm)."""
-    del times[step + 1 :]
-    i = 0
-    while times[step + i] < t_final:
-        times.append(t_cur + (i + 1) * dt)
-        i += 1
-
-
-def multiply_output_frequency(writers, multiplier: float) -> None:
-    """Peridigm's ``multiplyOutputFrequency``: ``frequency *= multiplier`` on an int, i.e. the
-    product truncated toward zero, for every writer."""
-    for w in writers:
-        w.frequency = int(w.frequency * multiplier)
-
-
-def change_output_frequency(writers, frequency: int) -> None:
-    """Peridigm's ``changeOutputFrequency`` (Switch to Verlet's ``Output Frequency``)."""
-    for w in writers:
-        w.frequency = frequency
-
-
-def fmod_zero(a: int, b: int) -> bool:
-    """C's ``a % b == 0`` (the remainder takes the sign of a)."""
-    return math.fmod(a, b) == 0.0
 
 
 class QuasiStatic(Solver):
@@ -184,7 +149,19 @@ class QuasiStatic(Solver):
 
     def run(self, sim) -> None:
         with threads_for(sim):
-            QuasiStaticRun(self, sim).run()
+            if getattr(sim.deck, "multiphysics", False):  # 4 dofs per point (PERIDIGM_MODELS.md §7)
+                from .coupled import CoupledQuasiStaticRun
+
+                CoupledQuasiStaticRun(self, sim).run()
+            else:
+                if self.params.solve_for_pressure or not self.params.solve_for_displacement:
+                    from ..core.errors import InputError
+
+                    raise InputError(
+                        "QuasiStatic solves for the displacement; the fluid pressure is an unknown only in a Multiphysics deck",
+                        file=sim.deck.file, path=(self.section,), fix="set 'Multiphysics: 1' at the top level (and use Multiphysics materials), or remove the Solve For keys",
+                    )
+                QuasiStaticRun(self, sim).run()
 
 
 class QuasiStaticRun:

@@ -1,0 +1,357 @@
+"""``Multiphysics Elastic``: Peridigm's LPS solid coupled with a nonlocal fluid flow, the pressure
+p being a fourth unknown per point (PERIDIGM_MODELS.md §7; ``nonlocal_diffusion.cxx``).
+
+Force. The Elastic (LPS) force state with the owner's fluid pressure p_i (``Fluid_Pressure_Y``)
+in the dilatational coefficient (Peridigm's evaluation order):
+
+    alpha = (15 mu / m) s,   c1 = (omega theta_i) (3K/m - alpha/3) - ((3 omega)/m) p_i,
+    t_ij  = (1-d) (c1 zeta + ((1-d) omega) alpha e),        e = |eta| - zeta - a_T dT_i zeta,
+
+s the surface correction factor (1, or the Elastic Plastic Hardening factor *not* inverted with
+``Apply Shear Correction Factor``). A positive pressure pushes the points of a family apart.
+
+Flow. For every bond i->j, with eta = y_j - y_i,
+
+    k_bar = k - 0.25 (3 k)                       (the diagonal of the nonlocal permeability)
+    k_e   = eta . k_bar I . eta,  then  k_e <- k_e + (k_max - k_e) / (1 + exp(a_p (d - d_c)))
+    q_ij  = ((rho_f / mu) (4 / (pi delta^2))) (k_e / |eta|^4) (p_j - p_i),
+    mu    = mu_f exp(c_T dT_i) with a thermal expansion coefficient, else mu_f,
+
+and Flux_Density_i = sum_j q_ij V_j - sum_{j: i in N_j} q_ji V_j (Peridigm adds q V_j to i and
+subtracts q V_i from j). ``Fluid compressibility`` and ``Fluid linear thermal expansion`` are
+read and unused, as in Peridigm. Only the coupled QuasiStatic solve advances the pressure.
+
+Tangent (:mod:`peridyn.materials.multiphysics_kernels`): the exact Jacobian of (f V, flow V)
+with respect to (y, p) in 4x4 blocks, in place of Peridigm's Sacado AD (equal up to round-off).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+from pydantic import Field, field_validator
+
+from ..core.errors import InputError
+from ..core.fields import FieldSpec, Relation
+from ..core.influence import omega
+from ..core.interfaces import BlockView, Material
+from .elastic import EMPTY, dilatation_kernel, weighted_volume_kernel
+from .moduli import IsotropicElasticParams
+
+#: the pressure fields (node scalars): current trial value, accumulated value, rate; flow density
+PRESSURE_FIELDS = ("Fluid_Pressure_Y", "Fluid_Pressure_U", "Fluid_Pressure_V", "Flux_Density")
+#: per-bond flow q_ij (written by force_state, gathered by the coupled solver)
+FLOW_BOND_FIELD = "Fluid_Flow_Bond"
+
+
+class MultiphysicsElasticParams(IsotropicElasticParams):
+    permeability: float = Field(alias="Permeability", description="isotropic permeability k (L^2)")
+    fluid_density: float = Field(alias="Fluid density", description="fluid density rho_f (M/L^3)")
+    fluid_compressibility: float = Field(alias="Fluid compressibility", description="read and unused, as in Peridigm (L T^2/M)")
+    fluid_dynamic_viscosity: float = Field(alias="Fluid dynamic viscosity", gt=0, description="fluid dynamic viscosity mu_f (M/(L T))")
+    fluid_linear_thermal_expansion: float = Field(alias="Fluid linear thermal expansion", description="read and unused, as in Peridigm (1/temperature)")
+    reynolds_viscosity_temperature_effect: float = Field(
+        alias="Fluid Reynolds viscosity temperature effect", description="c_T: mu = mu_f exp(c_T dT) with thermal strain (1/temperature)"
+    )
+    permeability_inflection_damage: float = Field(alias="Permeability curve inflection damage", description="d_c of the logistic permeability law")
+    max_permeability: float = Field(alias="Max permeability", description="k_max of the logistic permeability law")
+    permeability_alpha: float = Field(alias="Permeability alpha", description="a_p, the slope of the logistic permeability law")
+    apply_ad_jacobian: bool = Field(
+        True, alias="Apply Automatic Differentiation Jacobian", description="must be true: the material has only the exact tangent (as in Peridigm)"
+    )
+    apply_shear_correction_factor: bool = Field(
+        False, alias="Apply Shear Correction Factor", description="scale alpha by the surface correction factor (Peridigm's, not inverted)"
+    )
+    thermal_expansion_coefficient: float | None = Field(
+        None, alias="Thermal Expansion Coefficient", description="linear thermal expansion coefficient of the solid (1/temperature)"
+    )
+    multiphysics: int | None = Field(None, alias="Multiphysics", description="accepted (the top-level Multiphysics key decides)")
+
+    @field_validator("apply_ad_jacobian")
+    @classmethod
+    def _ad_only(cls, v: bool) -> bool:
+        if not v:
+            raise ValueError("Multiphysics Elastic has only the exact (automatic differentiation) Jacobian; remove the key or set it to true")
+        return v
+
+
+# ------------------------------------------------------------------------------------------------
+# kernels (x, y (n, 3) L; volume (n,) L^3; p (n,) pressure; offsets (n+1,), neighbors (nb,) int32;
+# per-bond arrays (nb,); empty arrays mean "feature off")
+# ------------------------------------------------------------------------------------------------
+@njit(cache=True, parallel=True, error_model="numpy")
+def coupled_force_state_kernel(start, stop, offsets, neighbors, zeta, y, m, theta, scf, p, K, mu, omega_kind, delta, omega_table, bond_damage, dT, alpha_T, t):
+    """Scalar force state t[b] (M L^-5 T^-2) of the bonds of points [start, stop) with the
+    owner's pressure in c1 (Peridigm's computeInternalForceLinearElasticCoupled)."""
+    has_damage = bond_damage.shape[0] > 0
+    thermal = dT.shape[0] > 0
+    for i in prange(start, stop):
+        mi = m[i]
+        if mi == 0.0:
+            for b in range(offsets[i], offsets[i + 1]):
+                t[b] = 0.0
+            continue
+        alpha = ((15.0 * mu) / mi) * scf[i]
+        shift = alpha_T * dT[i] if thermal else 0.0
+        for b in range(offsets[i], offsets[i + 1]):
+            j = neighbors[b]
+            z = zeta[b]
+            ex = y[j, 0] - y[i, 0]
+            ey = y[j, 1] - y[i, 1]
+            ez = y[j, 2] - y[i, 2]
+            e = math.sqrt(ex * ex + ey * ey + ez * ez) - z
+            if thermal:
+                e -= shift * z
+            w = omega(omega_kind, z, delta, omega_table, b)
+            keep = 1.0 - bond_damage[b] if has_damage else 1.0
+            c1 = (w * theta[i]) * ((3.0 * K) / mi - alpha / 3.0) - (((3.0 * w) / mi) * 1.0) * p[i]
+            t[b] = keep * (c1 * z + ((keep * w) * alpha) * e)
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def flow_coefficients(k, rho_f, mu, delta):
+    """(k_bar, C): the diagonal of the nonlocal permeability and (rho_f/mu) (4/(pi delta^2))."""
+    kbar = k - 0.25 * (3.0 * k)
+    return kbar, (rho_f / mu) * (4.0 / ((math.pi * delta) * delta))
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def flow_bond_kernel(start, stop, offsets, neighbors, y, p, bond_damage, dT, c_T, k, rho_f, mu_f, k_max, a_p, d_c, delta, q):
+    """q[b] = C (k_e / |eta|^4) (p_j - p_i) for the bonds of points [start, stop) (pressure per
+    time per volume; Peridigm's computeInternalFluidFlow). Returns the number of non-finite q."""
+    has_damage = bond_damage.shape[0] > 0
+    thermal = dT.shape[0] > 0
+    bad = 0
+    for i in prange(start, stop):
+        mu = mu_f * math.exp(c_T * dT[i]) if thermal else mu_f
+        kbar, C = flow_coefficients(k, rho_f, mu, delta)
+        for b in range(offsets[i], offsets[i + 1]):
+            j = neighbors[b]
+            e0 = y[j, 0] - y[i, 0]
+            e1 = y[j, 1] - y[i, 1]
+            e2 = y[j, 2] - y[i, 2]
+            L = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+            # the sequential sum over row, col of (eta_row K_bar[row, col]) eta_col (zeros included)
+            ke = 0.0
+            ke += (e0 * kbar) * e0
+            ke += (e0 * 0.0) * e1
+            ke += (e0 * 0.0) * e2
+            ke += (e1 * 0.0) * e0
+            ke += (e1 * kbar) * e1
+            ke += (e1 * 0.0) * e2
+            ke += (e2 * 0.0) * e0
+            ke += (e2 * 0.0) * e1
+            ke += (e2 * kbar) * e2
+            d = bond_damage[b] if has_damage else 0.0
+            ke = ke + (k_max - ke) * (1.0 / (1.0 + math.exp(a_p * (d - d_c))))
+            qb = (C * (ke / math.pow(L, 4.0))) * (p[j] - p[i])
+            q[b] = qb
+            if not np.isfinite(qb):
+                bad += 1
+    return bad
+
+
+@njit(cache=True, parallel=True)
+def flow_gather_kernel(lo, hi, offsets, neighbors, in_offsets, in_bonds, sources, volume, q, flow):
+    """flow_i = sum_{b = i->j} q_b V_j - sum_{b = j->i} q_b V_j for the rows [lo, hi) (owned
+    rows, or under MPI the ghost rows, whose sums go back to their owners): a gather."""
+    for i in prange(lo, hi):
+        acc = 0.0
+        for b in range(offsets[i], offsets[i + 1]):
+            acc += q[b] * volume[neighbors[b]]
+        for k in range(in_offsets[i], in_offsets[i + 1]):
+            b = in_bonds[k]
+            acc -= q[b] * volume[sources[b]]
+        flow[i] = acc
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def stored_energy_kernel(start, stop, offsets, neighbors, x, y, volume, m, theta, scf, K, mu, omega_kind, delta, omega_table, bond_damage, dT, alpha_T, W):
+    """W_i = K theta^2 / 2 + (alpha / 2) sum_j (1-d) omega e_d^2 V_j, alpha = (15 mu / m) s
+    (energy per volume; Peridigm's computeStoredElasticEnergyDensity: the pressure does not enter)."""
+    has_damage = bond_damage.shape[0] > 0
+    thermal = dT.shape[0] > 0
+    for i in prange(start, stop):
+        if m[i] == 0.0:
+            W[i] = 0.0
+            continue
+        alpha = ((15.0 * mu) / m[i]) * scf[i]
+        th = theta[i]
+        acc = 0.0
+        for b in range(offsets[i], offsets[i + 1]):
+            j = neighbors[b]
+            dx = x[i, 0] - x[j, 0]
+            dy = x[i, 1] - x[j, 1]
+            dz = x[i, 2] - x[j, 2]
+            L0 = math.sqrt(dx * dx + dy * dy + dz * dz)
+            ex = y[i, 0] - y[j, 0]
+            ey = y[i, 1] - y[j, 1]
+            ez = y[i, 2] - y[j, 2]
+            L = math.sqrt(ex * ex + ey * ey + ez * ez)
+            if thermal:
+                L -= (alpha_T * dT[i]) * L0
+            ed = (L - L0) - (th * L0) / 3.0
+            keep = 1.0 - bond_damage[b] if has_damage else 1.0
+            acc += (((keep * omega(omega_kind, L0, delta, omega_table, b)) * ed) * ed) * volume[j]
+        W[i] = ((0.5 * K) * th) * th + (0.5 * alpha) * acc
+
+
+# ------------------------------------------------------------------------------------------------
+class MultiphysicsElastic(Material):
+    """Peridigm's ``Multiphysics Elastic`` (LPS solid + nonlocal Darcy-like flow)."""
+
+    name = "Multiphysics Elastic"
+    Params = MultiphysicsElasticParams
+    precompute_fields = ("Dilatation",)
+    ghost_inputs = ("Fluid_Pressure_Y",)
+
+    def __init__(self, params: MultiphysicsElasticParams, *, horizon: float | None, options=None) -> None:
+        super().__init__(params, horizon=horizon, options=options)
+        if horizon is None:
+            raise InputError(
+                "the Multiphysics Elastic material needs a constant horizon (its flow law uses the block's horizon)",
+                path=tuple((options or {}).get("path", ())),
+                fix="give the block's Horizon as a number",
+            )
+        self.K, self.mu = params.moduli()
+        self.alpha_T = params.thermal_expansion_coefficient
+        self.omega_table = EMPTY
+
+    @property
+    def density(self) -> float:
+        return self.params.density
+
+    @property
+    def bulk_modulus(self) -> float:
+        return self.K
+
+    @property
+    def thermal(self) -> bool:
+        return self.alpha_T is not None
+
+    def fields(self) -> list[FieldSpec]:
+        specs = [
+            FieldSpec("Weighted_Volume", Relation.ELEMENT, 1, halo=True, units="L^5"),
+            FieldSpec("Dilatation", Relation.ELEMENT, 1, halo=True),
+            FieldSpec("Fluid_Pressure_Y", Relation.NODE, halo=True, units="pressure"),
+            FieldSpec("Fluid_Pressure_U", Relation.NODE, units="pressure"),
+            FieldSpec("Fluid_Pressure_V", Relation.NODE, units="pressure/T"),
+            FieldSpec("Flux_Density", Relation.NODE, units="pressure/T"),
+            FieldSpec(FLOW_BOND_FIELD, Relation.BOND, units="pressure/(T L^3)"),
+        ]
+        if self.params.apply_shear_correction_factor:
+            specs.append(FieldSpec("Surface_Correction_Factor", Relation.ELEMENT, halo=True))
+        if self.thermal:
+            specs += [FieldSpec("Temperature", Relation.NODE), FieldSpec("Temperature_Change", Relation.NODE, halo=True)]
+        return specs
+
+    # -- helpers ---------------------------------------------------------------------------------
+    def _common(self, block: BlockView):
+        return block.influence.kind, float(self.horizon), self.omega_table
+
+    @staticmethod
+    def _damage(block: BlockView) -> np.ndarray:
+        return block.fields.get("Bond_Damage", EMPTY)
+
+    def _dT(self, block: BlockView) -> tuple[np.ndarray, float]:
+        if self.thermal:
+            return block.fields["Temperature_Change"], float(self.alpha_T)
+        return EMPTY, 0.0
+
+    def scf(self, block: BlockView) -> np.ndarray:
+        """Surface correction factors (n_local,), ones without ``Apply Shear Correction Factor``."""
+        if self.params.apply_shear_correction_factor:
+            return block.fields["Surface_Correction_Factor"]
+        n = block.fields.num_points
+        if getattr(self, "_ones", None) is None or self._ones.shape[0] != n:
+            self._ones = np.ones(n)
+        return self._ones
+
+    def flow_parameters(self) -> tuple[float, float, float, float, float, float, float]:
+        """(c_T, k, rho_f, mu_f, k_max, a_p, d_c) in the kernels' order."""
+        p = self.params
+        return (float(p.reynolds_viscosity_temperature_effect), float(p.permeability), float(p.fluid_density), float(p.fluid_dynamic_viscosity),
+                float(p.max_permeability), float(p.permeability_alpha), float(p.permeability_inflection_damage))
+
+    # -- material interface ----------------------------------------------------------------------
+    def initialize(self, block: BlockView) -> None:
+        s, nl = block.fields, block.bonds
+        if block.influence.needs_table:
+            self.omega_table = block.influence.table_for(nl.offsets, nl.neighbors, s["Model_Coordinates"], np.arange(block.start, block.stop), float(self.horizon))
+        kind, delta, table = self._common(block)
+        weighted_volume_kernel(block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Volume"], kind, delta, table, s["Weighted_Volume"])
+        if self.params.apply_shear_correction_factor:
+            from .elastic_plastic_hardening import shear_correction_kernel
+
+            out = s["Surface_Correction_Factor"]
+            shear_correction_kernel(block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Volume"], s["Weighted_Volume"], kind, delta, table, out)
+            out[block.start : block.stop] = 1.0 / out[block.start : block.stop]  # Peridigm's factor, not inverted
+
+    def precompute(self, block: BlockView) -> None:
+        s, nl = block.fields, block.bonds
+        kind, delta, table = self._common(block)
+        dT, aT = self._dT(block)
+        dilatation_kernel(
+            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], s["Volume"],
+            s["Weighted_Volume"], kind, delta, table, self._damage(block), dT, aT, s["Dilatation"],
+        )
+
+    def force_state(self, block: BlockView, t: np.ndarray) -> None:
+        s, nl = block.fields, block.bonds
+        kind, delta, table = self._common(block)
+        dT, aT = self._dT(block)
+        damage = self._damage(block)
+        coupled_force_state_kernel(
+            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], s["Weighted_Volume"], s["Dilatation"],
+            self.scf(block), s["Fluid_Pressure_Y"], self.K, self.mu, kind, delta, table, damage, dT, aT, t,
+        )
+        self.flow_state(block)
+
+    def stored_energy_density(self, block: BlockView, out: np.ndarray) -> None:
+        s, nl = block.fields, block.bonds
+        kind, delta, table = self._common(block)
+        dT, aT = self._dT(block)
+        stored_energy_kernel(
+            block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Coordinates"], s["Volume"], s["Weighted_Volume"],
+            s["Dilatation"], self.scf(block), self.K, self.mu, kind, delta, table, self._damage(block), dT, aT, out,
+        )
+
+    def flow_state(self, block: BlockView) -> None:
+        """The per-bond flow q (field ``Fluid_Flow_Bond``) of the block's points' bonds."""
+        s, nl = block.fields, block.bonds
+        dT, _ = self._dT(block)
+        c_T, k, rho_f, mu_f, k_max, a_p, d_c = self.flow_parameters()
+        bad = flow_bond_kernel(
+            block.start, block.stop, nl.offsets, nl.neighbors, s["Coordinates"], s["Fluid_Pressure_Y"], self._damage(block), dT,
+            c_T, k, rho_f, mu_f, k_max, a_p, d_c, float(self.horizon), s[FLOW_BOND_FIELD],
+        )
+        if bad:
+            from ..core.errors import InstabilityError
+
+            raise InstabilityError(
+                f"the fluid flow of block {block.name!r} is not finite (coincident deformed points, or a non-finite pressure)", collective=False
+            )
+
+    def coupled_tangent(self, block: BlockView, target) -> None:
+        """Add d(f V, flow V)/d(y, p) of the block's points' bonds to the 4x4-block matrix
+        ``target`` (:class:`peridyn.solvers.coupled_tangent.CoupledTangentTarget`)."""
+        from .multiphysics_kernels import coupled_tangent_kernel
+
+        s, nl = block.fields, block.bonds
+        kind, delta, table = self._common(block)
+        dT, aT = self._dT(block)
+        c_T, k, rho_f, mu_f, k_max, a_p, d_c = self.flow_parameters()
+        T = target
+        coupled_tangent_kernel(
+            block.start, block.stop, T.eval_rank, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], s["Volume"],
+            s["Weighted_Volume"], s["Dilatation"], self.scf(block), s["Fluid_Pressure_Y"], self.K, self.mu, kind, delta, table,
+            self._damage(block), dT, aT, c_T, k, rho_f, mu_f, k_max, a_p, d_c, T.row_of_local, T.indptr, T.indices, T.data,
+        )
+
+    def tangent(self, block: BlockView, target) -> bool:
+        raise InputError(
+            "the Multiphysics Elastic material needs the coupled (displacement and pressure) QuasiStatic solve",
+            path=tuple(self.options.get("path", ())),
+            fix="use a QuasiStatic solver with 'Solve For Displacement' and 'Solve For Pressure' true",
+        )
