@@ -341,7 +341,7 @@ class LinearSolver:
                 A = T.to_scipy(copy=True).tocsc()
                 self._prepared = spla.splu(A)
         elif self._chosen == "AMG":
-            A = T.owned_block() if parallel else T.to_scipy(copy=True)
+            A = T.owned_block() if parallel else T.to_scipy()  # pyamg reads A; nothing keeps it after the set-up
             self._prepared = self._amg_preconditioner(A)
             del A
             self._amg_iterations = None
