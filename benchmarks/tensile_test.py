@@ -11,7 +11,11 @@ gauge points over their initial distance, along y) and the mean of the end react
 
 Peridigm (README, 2026-11-23): 504 s, 1.66 GiB, E = 178.5 GPa (deck moduli: 180.0 GPa).
 
-    python benchmarks/tensile_test.py [--deck DIR] [--keep]
+    python benchmarks/tensile_test.py [--deck DIR] [--keep] [--material MODEL]
+
+``--material`` swaps the deck's material model (same density and moduli; `Hourglass Coefficient`
+dropped for non-correspondence models), e.g. ``Elastic`` (LPS) or ``Pals``, to measure the
+surface effect of a model on the same bar: E against the deck's 180 GPa.
 """
 from __future__ import annotations
 
@@ -60,11 +64,23 @@ def youngs_modulus(g: dict[str, list[float]]) -> dict:
             "E_error_vs_deck": E / E_DECK - 1.0}
 
 
-def run(deck: Path, keep: bool) -> dict:
+def swap_material(yaml_file: Path, model: str) -> None:
+    """Replace the deck's Material Model by ``model`` (moduli and density kept)."""
+    text = yaml_file.read_text()
+    text = re.sub(r'Material Model: "[^"]*"', f'Material Model: "{model}"', text)
+    if "Correspondence" not in model:  # drop what only the correspondence family has
+        for key in ("Hourglass Coefficient", "Hourglass_Force_Density", "Cauchy_Stress"):
+            text = re.sub(rf"\n\s*{key}: [^\n]*", "", text)
+    yaml_file.write_text(text)
+
+
+def run(deck: Path, keep: bool, material: str | None = None) -> dict:
     tmp = Path(tempfile.mkdtemp(prefix="tensile_test_"))
     try:
         work = tmp / "tensile_test"
         shutil.copytree(deck, work)
+        if material:
+            swap_material(work / "tensile_test.yaml", material)
         cmd = ["/usr/bin/time", "-v", sys.executable, "-m", "peridyn", "run", "tensile_test.yaml", "--no-progress", "-v"]
         proc = subprocess.run(cmd, cwd=work, capture_output=True, text=True, check=False)
         err = proc.stderr
@@ -95,8 +111,10 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--deck", type=Path, default=DECK)
     ap.add_argument("--keep", action="store_true", help="keep the run folder")
+    ap.add_argument("--material", help="material model to use instead of the deck's (e.g. Elastic, Pals)")
     args = ap.parse_args()
-    res = run(args.deck, args.keep)
+    res = run(args.deck, args.keep, args.material)
+    res["material"] = args.material or "deck (Elastic Correspondence)"
     res["peridigm"] = PERIDIGM
     print(json.dumps(res, indent=2))
 
