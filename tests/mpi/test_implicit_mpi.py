@@ -262,7 +262,8 @@ CHECK = textwrap.dedent(
     from peridyn.engine.simulation import Simulation
     from peridyn.parallel.comm import get_comm
     from peridyn.deck.source import DeckSource
-    from peridyn.solvers.linear import LinearSolver, aztec_gmres, belos_cg, gmres, pcg
+    from peridyn.solvers.aztecoo import aztecoo_gmres as aztec_gmres
+    from peridyn.solvers.linear import LinearSolver, belos_cg, gmres, pcg
     from peridyn.solvers.tangent import TangentMatrix
 
     tree = json.loads(Path(sys.argv[1]).read_text())

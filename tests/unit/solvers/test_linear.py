@@ -8,7 +8,8 @@ also at 1e-6."""
 import numpy as np
 import pytest
 
-from peridyn.solvers.linear import LinearSolver, aztec_gmres, belos_cg, gdot, gnorm, gsum, pcg, seq_dot, seq_norm2
+from peridyn.solvers.aztecoo import aztecoo_gmres as aztec_gmres
+from peridyn.solvers.linear import LinearSolver, belos_cg, gdot, gnorm, gsum, pcg, seq_dot, seq_norm2
 from peridyn.solvers.tangent import TangentMatrix
 
 
