@@ -23,8 +23,9 @@
 * ``"Auto"``: ``Direct`` up to 3000 unknowns, ``AMG`` above.
 * ``"Adaptive"`` (the QuasiStatic default): ``Belos`` while its plain CG converges within
   300 iterations, so that Peridigm's decks of ordinary size give Peridigm's iterates; the first
-  solve that does not switches the run to AMG-preconditioned CG at the same relative tolerance
-  (logged once). On the tensile test (37,875 unknowns) plain CG needs ~810 iterations per solve,
+  solve that reaches 300 iterations switches the run to AMG-preconditioned CG at the same
+  relative tolerance (logged once). A CG breakdown (an indefinite tangent) stays a failed solve,
+  handled as Peridigm handles it (damped Newton, a failed load step). On the tensile test (37,875 unknowns) plain CG needs ~810 iterations per solve,
   the AMG-preconditioned one 27.
 
 Under MPI (the TangentMatrix of a run on several ranks, see :mod:`peridyn.solvers.tangent`) every
@@ -376,7 +377,7 @@ class LinearSolver:
                 res = gmres(T.matvec, b, self.tol, restart=500, max_restarts=10, comm=comm)
             elif self.method == "Adaptive" and maxiter > ADAPTIVE_BELOS_ITERATIONS:
                 res = belos_cg(T.matvec, b, self.tol, ADAPTIVE_BELOS_ITERATIONS, comm=comm)
-                if not res.converged:
+                if not res.converged and res.iterations >= ADAPTIVE_BELOS_ITERATIONS:  # slow, not broken down
                     log.info(
                         "Linear solver: Peridigm's plain conjugate gradients did not converge in %d iterations; "
                         "AMG-preconditioned conjugate gradients from here on (set 'Linear Solver: Belos' to keep Peridigm's)",

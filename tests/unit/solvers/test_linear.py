@@ -140,3 +140,24 @@ def test_adaptive_switches_to_amg_when_cg_is_slow_and_stays_there(system, monkey
     assert s._chosen == "AMG" and again.converged
     # the preconditioner earns its keep: far fewer iterations than plain CG on the same system
     assert again.iterations < plain.iterations / 2
+
+
+def test_adaptive_keeps_a_cg_breakdown_a_failure():
+    """An indefinite tangent breaks Peridigm's CG down: that is a failed solve (Peridigm then damps
+    the tangent or fails the load step), not a reason to switch solvers."""
+    A = np.diag([1.0, -1.0])
+
+    class Matrix:
+        shape = (2, 2)
+        parallel = False
+
+        def matvec(self, p, out=None):
+            out = np.empty(2) if out is None else out
+            np.copyto(out, A @ p)
+            return out
+
+    s = LinearSolver("Adaptive", tol=1e-8)
+    s.set_matrix(Matrix())
+    res = s.solve(np.array([0.0, 1.0]))
+    assert not res.converged and "positive" in res.message
+    assert not s.switched
