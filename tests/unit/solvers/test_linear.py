@@ -145,19 +145,23 @@ def test_adaptive_switches_to_amg_when_cg_is_slow_and_stays_there(system, monkey
 def test_adaptive_keeps_a_cg_breakdown_a_failure():
     """An indefinite tangent breaks Peridigm's CG down: that is a failed solve (Peridigm then damps
     the tangent or fails the load step), not a reason to switch solvers."""
-    A = np.diag([1.0, -1.0])
+    n = 400  # more unknowns than the adaptive CG limit: the adaptive branch runs
+    d = np.ones(n)
+    d[-1] = -1.0
 
     class Matrix:
-        shape = (2, 2)
+        shape = (n, n)
         parallel = False
 
         def matvec(self, p, out=None):
-            out = np.empty(2) if out is None else out
-            np.copyto(out, A @ p)
+            out = np.empty(n) if out is None else out
+            np.multiply(d, p, out=out)
             return out
 
     s = LinearSolver("Adaptive", tol=1e-8)
     s.set_matrix(Matrix())
-    res = s.solve(np.array([0.0, 1.0]))
+    b = np.zeros(n)
+    b[-1] = 1.0
+    res = s.solve(b)
     assert not res.converged and "positive" in res.message
     assert not s.switched
