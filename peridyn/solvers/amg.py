@@ -53,7 +53,8 @@ class AMGPreconditioner:
             self.levels = 0
             return
         ml = pyamg.smoothed_aggregation_solver(
-            A, B=B, symmetry="hermitian" if symmetric else "nonsymmetric", max_coarse=MAX_COARSE, keep=False
+            A, B=B, symmetry="hermitian" if symmetric else "nonsymmetric", max_coarse=MAX_COARSE, keep=False,
+            improve_candidates=None,  # the rigid-body modes are the exact near-null space: no smoothing sweeps
         )
         self.levels = len(ml.levels)
         if self.levels == 1:  # small enough to factor directly

@@ -67,6 +67,9 @@ from .qs_common import (
 
 log = logging.getLogger("peridyn.solver")
 
+#: with the AMG solver, a Newton step that reduced the residual this many times keeps its tangent
+TANGENT_REUSE_GAIN = 1.0e3
+
 
 class SwitchToVerletParams(ModelParams):
     fixed_dt: float | None = Field(None, alias="Fixed dt", gt=0, description="time step of the explicit continuation (T)")
@@ -194,6 +197,7 @@ class QuasiStaticRun:
         )
         self.heuristics = not self.p.disable_heuristics
         self.dt = 1.0
+        self.tangent_reuses = 0
         self.residuals: list[list[float]] = []  # per load step attempt: residual norm before each iteration and at the end
         self.attempts: list[dict] = []  # per load step attempt: step, time, dt, iterations, residual, tolerance, outcome
         self.step = 0  # the load step being solved
@@ -253,6 +257,16 @@ class QuasiStaticRun:
                 best_alpha, closest = alpha, abs(inc - target)
         return best_alpha
 
+    def reuse_tangent(self, history: list[float]) -> bool:
+        """Keep the last assembled tangent for this Newton iteration? Only once the run has left
+        Peridigm's linear solver for AMG (``Linear Solver: Adaptive`` on a system plain CG could
+        not solve in 300 iterations: Peridigm's iterates are not reproduced there anyway), and
+        only while the last step with it reduced the residual at least ``TANGENT_REUSE_GAIN``
+        times (a tangent that still gives Newton's convergence; a worse step reassembles)."""
+        if not self.linear.switched or self.linear._chosen != "AMG" or len(history) < 2:
+            return False
+        return history[-1] <= history[-2] / TANGENT_REUSE_GAIN
+
     # -- one load step --------------------------------------------------------------------------
     def newton(self, step: int, predictor: np.ndarray, use_predictor_first: bool) -> tuple[float, float, int]:
         """Newton iterations of one load step from the current du; returns (residual norm,
@@ -283,12 +297,15 @@ class QuasiStaticRun:
                     log.info("%s: switching to damped Newton", self.section)
                     damped = True
                 if not damped or fmod_zero(it - PURE_NEWTON_STEPS - 1, DAMPED_TANGENT_INTERVAL):
-                    prob.assemble_tangent(self.p.probe_length)
-                    T.apply_kinematic_bc(prob.fixed_rows)
-                    T.scale(-1.0)
-                    if damped:
-                        T.damp(q.damped_newton_scale, q.damped_newton_shift)
-                    self.linear.set_matrix(T)
+                    if self.reuse_tangent(history):
+                        self.tangent_reuses += 1
+                    else:
+                        prob.assemble_tangent(self.p.probe_length)
+                        T.apply_kinematic_bc(prob.fixed_rows)
+                        T.scale(-1.0)
+                        if damped:
+                            T.damp(q.damped_newton_scale, q.damped_newton_shift)
+                        self.linear.set_matrix(T)
                 result = self.linear.solve(r)
                 if not result.converged and self.heuristics:
                     log.info("%s: linear solve failed (%s); switching to damped Newton", self.section, result.message)
@@ -405,6 +422,7 @@ class QuasiStaticRun:
             linear_solver=lin._chosen or lin.method, linear_solve_time=lin.solve_time, linear_setup_time=lin.setup_time,
             linear_iterations=lin.iterations, linear_solves=lin.solves, converged=not failed_qs, residuals=self.residuals,
             load_steps=self.attempts, load_step_reductions=sum(a["outcome"] == "cut back" for a in self.attempts),
+            tangent_reuses=self.tangent_reuses,
         )
         if failed_qs:
             if adaptive is not None and adaptive.switch_to_verlet is not None:

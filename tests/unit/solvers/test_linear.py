@@ -165,3 +165,40 @@ def test_adaptive_keeps_a_cg_breakdown_a_failure():
     res = s.solve(b)
     assert not res.converged and "positive" in res.message
     assert not s.switched
+
+
+def _qs_run(h, monkeypatch, limit: int | None, steps: int = 4):
+    """A bar pulled in ``steps`` QuasiStatic load steps (default linear solver: Adaptive); with
+    ``limit`` the adaptive CG limit is lowered so that this small model switches to AMG."""
+    import peridyn.solvers.linear as L
+
+    if limit is not None:
+        monkeypatch.setattr(L, "ADAPTIVE_BELOS_ITERATIONS", limit)
+    shape = (8, 3, 3)
+    tree = h.box_deck(h.LPS, shape=shape)
+    sim0 = h.build(tree)
+    x, gid = sim0.discretization.x, sim0.discretization.gid
+
+    def ids(mask):
+        return " ".join(str(g + 1) for g in gid[mask])
+
+    tree["Boundary Conditions"] = {
+        "Left Node Set": ids(x[:, 0] < 1.0),
+        "Right Node Set": ids(x[:, 0] > shape[0] - 1.0),
+        **{f"L{c}": {"Type": "Prescribed Displacement", "Node Set": "Left Node Set", "Coordinate": c, "Value": "0.0"} for c in "xyz"},
+        "RX": {"Type": "Prescribed Displacement", "Node Set": "Right Node Set", "Coordinate": "x", "Value": "0.02*t"},
+    }
+    tree["Solver"] = {"Initial Time": 0.0, "Final Time": 1.0, "QuasiStatic": {"Number of Load Steps": steps, "Relative Tolerance": 1e-10}}
+    sim = h.build(tree)
+    sim.run_solvers()
+    return sim, sim.stats["solvers"][-1]
+
+
+def test_after_the_switch_to_amg_a_good_tangent_is_kept_and_the_answer_is_unchanged(h, monkeypatch):
+    peridigm_sim, peridigm = _qs_run(h, monkeypatch, None)
+    assert peridigm["tangent_reuses"] == 0  # Peridigm's path: a tangent at every Newton iteration
+    fast_sim, fast = _qs_run(h, monkeypatch, 2)
+    assert fast["linear_solver"] == "AMG" and fast["converged"]
+    assert fast["tangent_reuses"] >= 1
+    u, u_ref = fast_sim.fields["Displacement"], peridigm_sim.fields["Displacement"]
+    np.testing.assert_allclose(u, u_ref, rtol=0, atol=1e-8 * np.abs(u_ref).max())
