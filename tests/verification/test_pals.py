@@ -70,3 +70,32 @@ def test_pals_is_closer_to_e_and_has_a_tenth_of_the_surface_effect(moduli):
     lps_effect = moduli["Elastic", 1.0] - moduli["Elastic", 2.0]
     pals_effect = abs(moduli["Pals", 1.0] - moduli["Pals", 2.0])
     assert pals_effect < 0.1 * lps_effect
+
+
+def test_explicit_pals_run_at_the_stable_time_step_stays_bounded_and_three_times_it_is_stopped():
+    """Peridigm's stable time step (SEM §6.1, from the bulk modulus) bounds Pals too: 400 Verlet
+    steps at that step stay finite with the kinetic energy at most 2 % above its initial value
+    (nothing is stored at t = 0, so energy growth would show there); at three times the step the run stops as unstable instead of running on to NaN."""
+    import numpy as np
+
+    from peridyn.core.errors import InstabilityError
+    from peridyn.solvers.verlet import Verlet, VerletSection
+    from peridyn.testing import cube_deck
+
+    def run(factor, steps):
+        sim = build_simulation(cube_deck({"Material Model": "Pals", "Density": 7800.0, "Bulk Modulus": K, "Shear Modulus": MU},
+                                         n=6, spacing=1.0e-3))
+        x = sim.fields["Model_Coordinates"]
+        sim.fields["Velocity"][:] = 1.0 * np.sin(np.pi * x[:, [1, 2, 0]] / 6e-3)
+        ke0 = sim.kinetic_energy()
+        dt = factor * sim.critical_time_step()
+        section = VerletSection.model_validate({"Initial Time": 0.0, "Final Time": steps * dt * (1 + 1e-9), "Verlet": {"Safety Factor": factor}})
+        Verlet(section).run(sim)
+        return sim, ke0
+
+    sim, ke0 = run(1.0, 400)
+    assert sim.stats["solvers"][-1]["steps"] == 400
+    assert np.isfinite(sim.fields["Displacement"]).all()
+    assert sim.kinetic_energy() <= 1.02 * ke0
+    with pytest.raises(InstabilityError):
+        run(3.0, 400)
