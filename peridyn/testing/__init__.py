@@ -18,7 +18,8 @@ independence from the thread count (:mod:`peridyn.testing.physics_checks` gives 
 tolerances). :class:`DamageConformance` does the same for damage models, and
 :class:`ContactConformance` for contact models (:mod:`peridyn.testing.contact_suite`) and
 :class:`NonOrdinaryConformance` for rate-form, vector force-state materials such as the
-correspondence family (:mod:`peridyn.testing.nonordinary`).
+correspondence family (:mod:`peridyn.testing.nonordinary`), and :class:`TransportConformance`
+for transport materials such as ``Diffusion`` (:mod:`peridyn.testing.transport`).
 
 :mod:`peridyn.testing.probes` holds the measurements (moduli of a lattice model, interior
 points); :mod:`peridyn.testing.mutants` derives buggy variants of a model and runs a suite's
@@ -38,11 +39,13 @@ from .harness import (
 )
 from .contact_suite import ContactConformance
 from .nonordinary import NonOrdinaryConformance
+from .transport import TransportConformance
 from .suites import DamageConformance, MaterialConformance
 
 __all__ = [
     "ContactConformance",
     "NonOrdinaryConformance",
+    "TransportConformance",
     "DamageConformance",
     "MaterialConformance",
     "build_simulation",

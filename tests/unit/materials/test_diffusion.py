@@ -174,3 +174,18 @@ def test_improved_weights_are_close_to_the_volumes_inside():
     nl = sim.bonds
     w = sim.fields["Quadrature_Weights"][nl.offsets[i] : nl.offsets[i + 1]]
     assert np.all(np.abs(w - 1.0) < 0.2)
+
+
+# -- the transport conformance kit -------------------------------------------------------------------
+from peridyn.testing import TransportConformance  # noqa: E402
+
+
+class TestDiffusionKit(TransportConformance):
+    material = "Diffusion"
+    params = {"Coefficient": KAPPA}
+
+
+class TestDiffusionImprovedQuadratureKit(TransportConformance):
+    material = "Diffusion"
+    params = {"Coefficient": KAPPA, "Use Improved Quadrature": True}
+    conservative = False  # per-point weights differ at a bond's two ends (exact for quadratics instead)
