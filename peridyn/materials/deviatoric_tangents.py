@@ -28,40 +28,7 @@ from .deviatoric import (
     point_theta,
     visco_bonds,
 )
-from .tangents import scatter_local_kernel
-
-
-@njit(cache=True, error_model="numpy")
-def _local_force(i, offsets, neighbors, y, volume, t, out):
-    """Force density of point i's bonds on S_i = [N_i..., i] (out (3 (|N_i| + 1),)) from the
-    local force states t[b - offsets[i]]."""
-    o = offsets[i]
-    ns = offsets[i + 1] - o + 1
-    for k in range(3 * ns):
-        out[k] = 0.0
-    fx = 0.0
-    fy = 0.0
-    fz = 0.0
-    Vi = volume[i]
-    for b in range(o, offsets[i + 1]):
-        j = neighbors[b]
-        ex = y[j, 0] - y[i, 0]
-        ey = y[j, 1] - y[i, 1]
-        ez = y[j, 2] - y[i, 2]
-        L = math.sqrt(ex * ex + ey * ey + ez * ez)
-        if L > 0.0:
-            s = t[b - o] / L
-            k = 3 * (b - o)
-            out[k] -= s * ex * Vi
-            out[k + 1] -= s * ey * Vi
-            out[k + 2] -= s * ez * Vi
-            fx += s * ex * volume[j]
-            fy += s * ey * volume[j]
-            fz += s * ez * volume[j]
-    k = 3 * (ns - 1)
-    out[k] = fx
-    out[k + 1] = fy
-    out[k + 2] = fz
+from .tangents import local_scalar_state_force_kernel, scatter_local_kernel
 
 
 @njit(cache=True, error_model="numpy")
@@ -76,7 +43,7 @@ def _probe(model, i, offsets, neighbors, zeta, y, volume, m, omega_kind, delta, 
         hard = model == HARDENING
         alpha, c, n, dlam, plastic = plastic_point(i, offsets, neighbors, zeta, y, volume, m[i], theta, K, mu, s, prm[0], prm[1], hard, bond_damage, bond_n, point_n[i])
         plastic_bonds(i, o, offsets, neighbors, zeta, y, theta, alpha, c, n, dlam, plastic, (s * s) * prm[0], hard, bond_damage, bond_n, t, w1)
-    _local_force(i, offsets, neighbors, y, volume, t, out)
+    local_scalar_state_force_kernel(i, offsets, neighbors, y, volume, t, out)
 
 
 @njit(cache=True, error_model="numpy")

@@ -31,7 +31,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..core.influence import omega as omega_0
-from .tangents import scatter_local_kernel
+from .tangents import local_scalar_state_force_kernel, scatter_local_kernel
 
 NUM_MULTIPLIERS = 6
 NO_TABLE = np.zeros(0)  # omega_0 is always a named function (never a per-bond table)
@@ -347,32 +347,7 @@ def _probe(i, offsets, neighbors, zeta, y, volume, W, Sg, m, K, two_mu, bond_dam
     ``local_force_kernel`` arithmetic) with theta_i, p_i re-evaluated at the current y."""
     th, pp = point_theta_p(i, offsets, neighbors, zeta, y, volume, W, Sg, m[i], K, two_mu, bond_damage)
     point_force_state(i, offsets, neighbors, zeta, y, W, Sg, th, pp, two_mu, bond_damage, t, 0)
-    o = offsets[i]
-    deg = offsets[i + 1] - o
-    for k in range(3 * (deg + 1)):
-        F[k] = 0.0
-    fx = 0.0
-    fy = 0.0
-    fz = 0.0
-    Vi = volume[i]
-    for bnd in range(o, offsets[i + 1]):
-        j = neighbors[bnd]
-        ex = y[j, 0] - y[i, 0]
-        ey = y[j, 1] - y[i, 1]
-        ez = y[j, 2] - y[i, 2]
-        L = math.sqrt(ex * ex + ey * ey + ez * ez)
-        if L > 0.0:
-            s = t[bnd - o] / L
-            k = 3 * (bnd - o)
-            F[k] -= s * ex * Vi
-            F[k + 1] -= s * ey * Vi
-            F[k + 2] -= s * ez * Vi
-            fx += s * ex * volume[j]
-            fy += s * ey * volume[j]
-            fz += s * ez * volume[j]
-    F[3 * deg] = fx
-    F[3 * deg + 1] = fy
-    F[3 * deg + 2] = fz
+    local_scalar_state_force_kernel(i, offsets, neighbors, y, volume, t, F)
 
 
 @njit(cache=True)

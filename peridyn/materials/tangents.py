@@ -373,6 +373,40 @@ def local_vector_force_kernel(i, offsets, neighbors, volume, T, out):
     out[k + 2] = fz
 
 
+@njit(cache=True, error_model="numpy")
+def local_scalar_state_force_kernel(i, offsets, neighbors, y, volume, t, out):
+    """Force density of point i's bonds on S_i = [N_i..., i] (out (3 (|N_i| + 1),)) from the
+    local scalar force states t[b - offsets[i]] (zero-length bonds carry none): the
+    finite-difference probes of the deviatoric materials and of Pals."""
+    o = offsets[i]
+    ns = offsets[i + 1] - o + 1
+    for k in range(3 * ns):
+        out[k] = 0.0
+    fx = 0.0
+    fy = 0.0
+    fz = 0.0
+    Vi = volume[i]
+    for b in range(o, offsets[i + 1]):
+        j = neighbors[b]
+        ex = y[j, 0] - y[i, 0]
+        ey = y[j, 1] - y[i, 1]
+        ez = y[j, 2] - y[i, 2]
+        L = math.sqrt(ex * ex + ey * ey + ez * ez)
+        if L > 0.0:
+            s = t[b - o] / L
+            k = 3 * (b - o)
+            out[k] -= s * ex * Vi
+            out[k + 1] -= s * ey * Vi
+            out[k + 2] -= s * ez * Vi
+            fx += s * ex * volume[j]
+            fy += s * ey * volume[j]
+            fz += s * ez * volume[j]
+    k = 3 * (ns - 1)
+    out[k] = fx
+    out[k + 1] = fy
+    out[k + 2] = fz
+
+
 @njit(cache=True)
 def scatter_local_kernel(rows, Kloc, indptr, indices, data):
     """data += a dense local matrix Kloc (3 ns, 3 ns) whose points are rows (ns,) (row numbers),
