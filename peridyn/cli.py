@@ -44,19 +44,26 @@ def cmd_run(args) -> int:
     output_dir = Path(args.output_dir) if args.output_dir else Path.cwd()
     if comm.size > 1:
         return _run_parallel(args, comm, output_dir, wall0)
+    from .engine.output import check_output_names, lock_outputs, release_locks
+
     _prepare_output_dir(output_dir)
     deck = load_deck(args.deck)
-    sim = Simulation(deck, comm=comm, output_dir=output_dir, progress=not args.no_progress)
-    _log_setup(sim)
+    check_output_names(deck, output_dir)
+    locks = lock_outputs(deck, output_dir)  # a second run of the deck in this folder is refused here
     try:
-        sim.run_solvers()
-    except InstabilityError:
+        sim = Simulation(deck, comm=comm, output_dir=output_dir, progress=not args.no_progress)
+        _log_setup(sim)
+        try:
+            sim.run_solvers()
+        except InstabilityError:
+            sim.outputs.close(complete=True)
+            raise
+        except BaseException:
+            sim.outputs.close(complete=False)
+            raise
         sim.outputs.close(complete=True)
-        raise
-    except BaseException:
-        sim.outputs.close(complete=False)
-        raise
-    sim.outputs.close(complete=True)
+    finally:
+        release_locks(locks)
     _log_summary(sim, time.perf_counter() - wall0)
     return ExitCode.OK
 
@@ -93,12 +100,25 @@ class _ReportedInputError(Exception):
 
 
 def _run_parallel(args, comm, output_dir: Path, wall0: float) -> int:
+    from .engine.output import release_locks
+
+    locks: list = []  # rank 0's output locks (the only rank that writes)
+    try:
+        return _run_parallel_locked(args, comm, output_dir, wall0, locks)
+    finally:
+        release_locks(locks)
+
+
+def _run_parallel_locked(args, comm, output_dir: Path, wall0: float, locks: list) -> int:
     from .deck.model import load_deck
+    from .engine.output import check_output_names, lock_outputs
     from .engine.simulation import Simulation
 
     try:
         _agree_on_input(comm, lambda: _prepare_output_dir(output_dir))
         deck = _agree_on_input(comm, lambda: load_deck(args.deck))
+        _agree_on_input(comm, lambda: check_output_names(deck, output_dir))
+        locks.extend(_agree_on_input(comm, lambda: lock_outputs(deck, output_dir) if comm.rank == 0 else []))
         sim = _agree_on_input(comm, lambda: Simulation(deck, comm=comm, output_dir=output_dir, progress=not args.no_progress and comm.rank == 0))
     except _ReportedInputError:
         return ExitCode.INPUT_ERROR
@@ -233,8 +253,11 @@ def cmd_check(args) -> int:
     from .engine.simulation import Simulation
 
     _setup_logging(args.verbose - args.quiet)
+    from .engine.output import check_output_names
+
     deck = load_deck(args.deck)
-    sim = Simulation(deck, output_dir=Path.cwd(), progress=False)
+    check_output_names(deck, Path.cwd())
+    sim = Simulation(deck, output_dir=Path.cwd(), progress=False, write_files=False)  # a check writes nothing
     nl = sim.bonds
     counts = nl.counts()
     vol = sim.fields["Volume"]

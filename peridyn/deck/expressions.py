@@ -19,8 +19,18 @@ Language (PERIDIGM_SEMANTICS.md §1.5):
   remainder has the dividend's sign (``-7 % 3`` is -1, ``7.9 % 2.5`` is 1). NaN if the
   truncated divisor is 0 or an operand is not finite (C leaves those undefined).
 * Functions: sin cos tan asin acos atan atan2 sinh cosh tanh sqrt exp log log10 pow abs fabs
-  floor ceil min max (C's fmin/fmax), and ``rnd(a)``, uniform in [-a, a) per point, drawn from a
-  module generator reset by :func:`set_random_seed`. Constant ``pi`` unless shadowed.
+  floor ceil min max (C's fmin/fmax), and ``rnd(a)``, uniform in [-a, a) per point. Constant
+  ``pi`` unless shadowed.
+
+Random numbers. ``rnd(a)`` is a pure function, not a generator's next draw: a counter-based hash
+(splitmix64) of the seed, the expression's stream (where it stands in the deck, e.g.
+``Boundary Conditions > Initial Velocity X``; its text when not given), the call's position in
+the text (the second ``rnd`` of an expression differs from the first) and the point's *global*
+id (``expr(point_ids, x=...)``; without ids, the bits of the input values stand in for it).
+Hence the same field on any number of MPI ranks, in any process, for any earlier history, and
+at every time a condition is evaluated. The seed is the deck's top-level ``Random Seed``
+(default 0), set for the expressions compiled inside :func:`random_seed`, or given to
+:func:`compile_expression`.
 
 Numerics. Every operation is done in double precision in the order written. Scalar inputs are
 evaluated with Python floats and :mod:`math` (the C library, as Peridigm); C's inf/NaN results
@@ -32,7 +42,10 @@ scalar evaluation (rnd aside). Without numba, numpy's functions are used.
 """
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import difflib
+import hashlib
 import math
 import operator
 import re
@@ -41,7 +54,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Expression", "ExpressionError", "compile_expression", "constant_not_finite", "set_random_seed"]
+__all__ = ["Expression", "ExpressionError", "compile_expression", "constant_not_finite", "random_seed", "set_random_seed"]
 
 _NAN = math.nan
 _PI = 3.141592653589793
@@ -95,13 +108,62 @@ class ExpressionError(ValueError):
 # --------------------------------------------------------------------------------------------
 # random numbers for rnd()
 
-_rng = np.random.default_rng(0)
+_M64 = (1 << 64) - 1
+_GOLDEN = 0x9E3779B97F4A7C15
+_C1 = 0xBF58476D1CE4E5B9
+_C2 = 0x94D049BB133111EB
+_IDS = "#ids"  # env key: the uint64 point keys rnd() hashes (global ids, or the inputs' bits)
+_KEY = "#key"  # env key: the expression's random key (seed and stream)
+_SEED: contextvars.ContextVar[int] = contextvars.ContextVar("peridyn_random_seed", default=0)
+
+
+def _mix_int(z: int) -> int:
+    """splitmix64 of a Python int (0 <= z < 2**64)."""
+    z = (z + _GOLDEN) & _M64
+    z = ((z ^ (z >> 30)) * _C1) & _M64
+    z = ((z ^ (z >> 27)) * _C2) & _M64
+    return z ^ (z >> 31)
+
+
+def _mix_array(z: np.ndarray) -> np.ndarray:
+    """splitmix64 of every element of a uint64 array (wrapping arithmetic)."""
+    z = z + np.uint64(_GOLDEN)
+    z = (z ^ (z >> np.uint64(30))) * np.uint64(_C1)
+    z = (z ^ (z >> np.uint64(27))) * np.uint64(_C2)
+    return z ^ (z >> np.uint64(31))
+
+
+def random_key(seed: int, stream: str) -> int:
+    """The 64-bit key of an expression's random numbers: its seed and its stream name."""
+    h = int.from_bytes(hashlib.blake2b(stream.encode("utf-8", "surrogatepass"), digest_size=8).digest(), "little")
+    return _mix_int(_mix_int(int(seed) & _M64) ^ h)
+
+
+def _float_bits(v: Any) -> np.ndarray:
+    return np.ascontiguousarray(np.asarray(v, dtype=np.float64)).view(np.uint64)
+
+
+def _uniform(key: int, index: int, ids: np.ndarray) -> np.ndarray:
+    """Uniform [0, 1) per element of the uint64 array ``ids``, for call ``index``."""
+    k = np.uint64(_mix_int(key ^ _mix_int(index)))
+    h = _mix_array(_mix_array(np.atleast_1d(ids) ^ k))
+    return ((h >> np.uint64(11)).astype(np.float64) * (1.0 / 9007199254740992.0)).reshape(np.shape(ids))
 
 
 def set_random_seed(seed: int = 0) -> None:
-    """Reset the generator behind ``rnd(a)`` so that runs are reproducible (default seed 0)."""
-    global _rng
-    _rng = np.random.default_rng(seed)
+    """Set the default seed of ``rnd(a)`` for expressions compiled from now on (default 0).
+    A deck's ``Random Seed`` takes precedence inside a simulation (:func:`random_seed`)."""
+    _SEED.set(int(seed))
+
+
+@contextlib.contextmanager
+def random_seed(seed: int):
+    """Expressions compiled inside the block use ``seed`` unless given one."""
+    token = _SEED.set(int(seed))
+    try:
+        yield
+    finally:
+        _SEED.reset(token)
 
 
 # --------------------------------------------------------------------------------------------
@@ -328,13 +390,14 @@ def _make_binary_fn(scalar: Callable[[float, float], float], array: Callable) ->
     return build
 
 
-def _build_rnd(args: list[Fn]) -> Fn:
+def _build_rnd(args: list[Fn], index: int = 0) -> Fn:
     (a,) = args
 
     def f(env: Env) -> Any:
         amp = a(env)
-        shape = env.get(_SHAPE, ())
-        u = _rng.random(shape) if shape else _rng.random()
+        u = _uniform(env[_KEY], index, env[_IDS])
+        if u.ndim == 0:
+            return amp * (2.0 * float(u) - 1.0)
         return amp * (2.0 * u - 1.0)
 
     return f
@@ -448,11 +511,12 @@ class _Binary(_Node):
 
 
 class _Call(_Node):
-    __slots__ = ("name", "args")
+    __slots__ = ("name", "args", "index")
 
-    def __init__(self, name: str, args: list[_Node]) -> None:
+    def __init__(self, name: str, args: list[_Node], index: int = 0) -> None:
         self.name = name
         self.args = args
+        self.index = index  #: rnd: its position among the text's rnd calls
 
 
 class _Assign:
@@ -497,6 +561,7 @@ class _Parser:
         self.n_locals = 0
         self.used: set[str] = set()
         self.has_rnd = False
+        self.n_rnd = 0
         self.assigns_value = False
         self.reads_value = False
 
@@ -852,6 +917,8 @@ class _Parser:
             )
         if name == "rnd":
             self.has_rnd = True
+            self.n_rnd += 1
+            return _Call(name, args, self.n_rnd - 1)
         return _Call(name, args)
 
 
@@ -970,7 +1037,10 @@ def _gen(node: _Node) -> tuple[Fn, bool]:
         fn, const = _binary_fn(node.op, a, b), ca and cb
     elif isinstance(node, _Call):
         gens = [_gen(arg) for arg in node.args]
-        fn = _FUNCTIONS[node.name][1]([g for g, _ in gens])
+        if node.name == "rnd":
+            fn = _build_rnd([g for g, _ in gens], node.index)
+        else:
+            fn = _FUNCTIONS[node.name][1]([g for g, _ in gens])
         const = node.name != "rnd" and all(c for _, c in gens)
     else:  # pragma: no cover
         raise TypeError(node)
@@ -1082,11 +1152,12 @@ class Expression:
     """A compiled Peridigm function string; call it with the variables as keywords.
 
     Attributes: ``text`` (original text), ``variables`` (allowed input variables), ``used``
-    (input variables the expression reads), ``is_constant`` (reads no variable, no ``rnd``).
+    (input variables the expression reads), ``is_constant`` (reads no variable, no ``rnd``),
+    ``has_rnd``, ``seed`` and ``stream`` (what its random numbers depend on, with the point ids).
     """
 
-    __slots__ = ("text", "variables", "used", "is_constant", "_varset", "_root", "_program",
-                 "_const")
+    __slots__ = ("text", "variables", "used", "is_constant", "has_rnd", "seed", "stream", "_key",
+                 "_varset", "_root", "_program", "_const")
 
     text: str
     variables: tuple[str, ...]
@@ -1094,11 +1165,16 @@ class Expression:
     is_constant: bool
 
     def __init__(self, text: str, variables: tuple[str, ...], used: frozenset[str],
-                 is_constant: bool, root: Fn | None, program: Stmt | None) -> None:
+                 is_constant: bool, root: Fn | None, program: Stmt | None,
+                 has_rnd: bool = False, seed: int = 0, stream: str | None = None) -> None:
         self.text = text
         self.variables = variables
         self.used = used
         self.is_constant = is_constant
+        self.has_rnd = has_rnd
+        self.seed = int(seed)
+        self.stream = text if stream is None else stream
+        self._key = random_key(self.seed, self.stream)
         self._varset = frozenset(variables)
         self._root = root  # a plain expression ("value = <expr>")
         self._program = program  # a statement list
@@ -1113,16 +1189,24 @@ class Expression:
         self._program(env, None)  # type: ignore[misc]
         return env[_VALUE]
 
-    def __call__(self, **values: Any) -> np.ndarray | float:
+    def __call__(self, point_ids: Any = None, /, **values: Any) -> np.ndarray | float:
         """Evaluate with each variable given as a float or a numpy array.
 
-        Arrays broadcast together (with every given value, used or not). Variables the
-        expression does not read may be omitted; a missing one it reads raises TypeError.
-        Returns a new float64 array of the broadcast shape, or a Python float when every input
-        is a scalar (or there is none).
+        Arrays broadcast together (with every given value, used or not, and ``point_ids``).
+        Variables the expression does not read may be omitted; a missing one it reads raises
+        TypeError. ``point_ids``: the points' global ids (non-negative integers), which
+        ``rnd()`` hashes; without them it hashes the input values. Returns a new float64 array
+        of the broadcast shape, or a Python float when every input is a scalar (or there is
+        none).
         """
         env: Env = {}
         arrays: list[np.ndarray] = []
+        if point_ids is not None:
+            ids = np.asarray(point_ids)
+            if ids.dtype.kind not in "iu":
+                raise TypeError(f"point ids must be integers, got {ids.dtype}")
+            if ids.ndim:
+                arrays.append(ids)
         varset = self._varset
         for name, v in values.items():
             if name not in varset:
@@ -1145,6 +1229,8 @@ class Expression:
         if not arrays:
             if self._const is not None:
                 return self._const
+            if self.has_rnd:
+                self._random_inputs(env, values, point_ids, ())
             return float(self._run(env))
         shape = arrays[0].shape if len(arrays) == 1 else np.broadcast_shapes(
             *(a.shape for a in arrays)
@@ -1152,6 +1238,8 @@ class Expression:
         if self._const is not None:
             return np.full(shape, self._const)
         env[_SHAPE] = shape
+        if self.has_rnd:
+            self._random_inputs(env, values, point_ids, shape)
         with np.errstate(all="ignore"):
             r = self._run(env)
         if type(r) is float:
@@ -1164,6 +1252,17 @@ class Expression:
             if r is a:  # never hand back the caller's array
                 return r.copy()
         return r
+
+    def _random_inputs(self, env: Env, values: dict[str, Any], point_ids: Any, shape: tuple[int, ...]) -> None:
+        """What rnd() hashes: the key, and per point the global id (or the inputs' bits)."""
+        env[_KEY] = self._key
+        if point_ids is not None:
+            ids = np.asarray(point_ids).astype(np.uint64)
+        else:  # no ids: the bits of every input value, in name order
+            ids = np.zeros((), np.uint64)
+            for name in sorted(values):
+                ids = _mix_array(np.atleast_1d(ids ^ _float_bits(values[name]))).reshape(np.broadcast_shapes(ids.shape, np.shape(values[name])))
+        env[_IDS] = np.broadcast_to(ids, shape) if shape else ids.reshape(())
 
     def constant_value(self) -> float:
         """The value of a constant expression; ExpressionError if it is not constant."""
@@ -1188,11 +1287,15 @@ def constant_not_finite(expr: Expression) -> str | None:
     return None
 
 
-def compile_expression(text: str, variables: Sequence[str]) -> Expression:
+def compile_expression(text: str, variables: Sequence[str], *, seed: int | None = None,
+                       stream: str | None = None) -> Expression:
     """Compile a Peridigm function string once; the result evaluates it on floats or arrays.
 
     ``variables`` are the names the text may read (e.g. ``("x", "y", "z", "t")``); ``value``
     is the result and is ignored if listed. Raises :class:`ExpressionError` for bad text.
+    ``seed`` (default: the one :func:`random_seed` sets, else 0) and ``stream`` (where the
+    expression stands, e.g. ``"Boundary Conditions > Initial Velocity X"``; default its text)
+    choose the numbers of ``rnd()``.
     """
     if not isinstance(text, str):
         raise TypeError(f"expression text must be a str, got {type(text).__name__}")
@@ -1227,6 +1330,7 @@ def compile_expression(text: str, variables: Sequence[str]) -> Expression:
             root = _gen(first.expr)[0]
         else:
             program = _gen_block(stmts)
-        return Expression(text, var_tuple, frozenset(parser.used), is_constant, root, program)
+        return Expression(text, var_tuple, frozenset(parser.used), is_constant, root, program,
+                          has_rnd=parser.has_rnd, seed=_SEED.get() if seed is None else seed, stream=stream)
     except RecursionError:
         raise ExpressionError(text, -1, "expression is nested too deeply") from None

@@ -38,6 +38,8 @@ IGNORED_TOP_LEVEL = {
     "Verbose": "verbosity is set with --verbose/--quiet",
     "Enable Bond-Associated Hypoelastic Model": "no model here reads it",
 }
+#: top-level key: the seed of ``rnd()`` in expressions (peridyn's; Peridigm has none)
+RANDOM_SEED_KEY = "Random Seed"
 #: Peridigm sections that peridyn does not implement yet
 UNSUPPORTED_SECTIONS = {
     "Restart": "restart is not supported yet",
@@ -202,6 +204,7 @@ class Deck:
     contact: ContactEntry | None
     registry: Registry = field(repr=False, default=None)
     multiphysics: bool = False  #: top-level ``Multiphysics: 1``: fluid pressure as a 4th dof (PERIDIGM_MODELS.md §7)
+    random_seed: int = 0  #: top-level ``Random Seed``: what ``rnd()`` in expressions hashes with each point's global id
 
     def line(self, path) -> int | None:
         return self.source.line_of(path) if self.source is not None else None
@@ -237,7 +240,15 @@ def parse_deck(source, registry: Registry | None = None) -> Deck:
         return value
 
     # -- top level -----------------------------------------------------------------------------
+    random_seed = 0
     for key in tree:
+        if key == RANDOM_SEED_KEY:  # peridyn's own top-level key (docs/peridigm-differences.md)
+            value = tree[key]
+            if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value < 2**64:
+                err(f"'Random Seed' must be a whole number from 0 to 2^64 - 1, got {value!r}", (key,), "give e.g. 'Random Seed: 1' or remove the key (seed 0)")
+            else:
+                random_seed = value
+            continue
         if key in KNOWN_SECTIONS or "Solver" in key or "Output" in key:
             if key in UNSUPPORTED_SECTIONS:
                 err(UNSUPPORTED_SECTIONS[key], (key,), "remove the section")
@@ -416,6 +427,7 @@ def parse_deck(source, registry: Registry | None = None) -> Deck:
         contact=contact,
         registry=registry,
         multiphysics=multiphysics,
+        random_seed=random_seed,
     )
 
 

@@ -85,6 +85,11 @@ def deck_json_schema() -> dict[str, Any]:
             "Compute Class Parameters": computes,
             "Data Loader": _model(DataLoaderParams, defs),
             "Contact": {"type": "object"},
+            "Random Seed": {
+                "type": "integer", "minimum": 0, "maximum": 2**64 - 1, "default": 0,
+                "description": "seed of rnd() in expressions: each value is a hash of the seed, the expression's place in the deck, "
+                               "the call's position in it and the point's global id (the same on any number of ranks)",
+            },
         },
         "patternProperties": {
             "Solver": {"oneOf": solver_variants},

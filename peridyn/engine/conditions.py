@@ -72,10 +72,12 @@ class BoundaryCondition:
 
         self.params = params
         self.entry_name = entry_name
-        self.expr = compile_expression(params.text, ("x", "y", "z", "t"))
+        # rnd() draws from this condition's own stream (two conditions' rnd() differ)
+        self.expr = compile_expression(params.text, ("x", "y", "z", "t"), stream=f"Boundary Conditions > {entry_name}")
         self.component = COMPONENT[params.coordinate]
         self.points = np.zeros(0, dtype=np.int64)
         self._x = np.zeros((0, 3))
+        self._gid: np.ndarray | None = None
 
     @classmethod
     def check(cls, params: BCParams) -> list[str]:
@@ -94,10 +96,12 @@ class BoundaryCondition:
             problems.append(f"{cls.name} acts on a scalar field; omit Coordinate or use 'x'")
         return problems
 
-    def bind(self, points: np.ndarray, x: np.ndarray) -> None:
-        """Attach the local point indices of the node set and their reference coordinates."""
+    def bind(self, points: np.ndarray, x: np.ndarray, gid: np.ndarray | None = None) -> None:
+        """Attach the local point indices of the node set, their reference coordinates and
+        their global ids (what ``rnd()`` hashes: the same values on any number of ranks)."""
         self.points = points
         self._x = x[points]
+        self._gid = None if gid is None else np.asarray(gid)[points]
 
     def evaluate(self, t: float) -> np.ndarray:
         """The expression at the node set's reference coordinates, time ``t`` (shape (k,)).
@@ -106,7 +110,7 @@ class BoundaryCondition:
         initial condition, an instability (exit 3) naming the condition, point and time later."""
         x = self._x
         with np.errstate(all="ignore"):
-            value = self.expr(x=x[:, 0], y=x[:, 1], z=x[:, 2], t=t)
+            value = self.expr(self._gid, x=x[:, 0], y=x[:, 1], z=x[:, 2], t=t)
         value = np.broadcast_to(np.asarray(value, dtype=float), (len(self.points),))
         if not np.all(np.isfinite(value)):
             self._non_finite(value, t)
@@ -329,7 +333,7 @@ def create_conditions(sim: Any) -> None:
         obj = bc.cls(bc.params, entry_name=bc.name)
         members = sim.local_of_mothership[sim.node_sets[ns]]
         members = members[(members >= 0) & (members < sim.num_owned)]  # this rank's points
-        obj.bind(np.unique(members) if obj.stage != "initial" else members, sim.discretization.x[sim.mothership_of_local])
+        obj.bind(np.unique(members) if obj.stage != "initial" else members, sim.discretization.x[sim.mothership_of_local], sim.gid)
         sim.conditions.append(obj)
     raise_collected(errors)
     for obj in sim.conditions:

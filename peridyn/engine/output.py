@@ -7,6 +7,7 @@ shared across solvers (PERIDIGM_SEMANTICS.md §9.2).
 from __future__ import annotations
 
 import difflib
+import errno
 import logging
 import os
 from dataclasses import dataclass
@@ -20,9 +21,128 @@ from ..core.fields import FieldSpec, Relation, Temporal, component_names
 from ..core.interfaces import Simulation
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..deck.model import OutputEntry
+    from ..deck.model import Deck, OutputEntry
 
 log = logging.getLogger("peridyn.output")
+
+#: the longest name a run gives an output file: NAME.partial.e (NAME.partial.h is as long)
+_LONGEST_SUFFIX = ".partial.e"
+
+
+def _name_max(folder: Path) -> int:
+    try:
+        return int(os.pathconf(folder, "PC_NAME_MAX"))
+    except (OSError, ValueError, AttributeError):
+        return 255
+
+
+def check_output_names(deck: "Deck", folder: Path) -> None:
+    """InputError (naming Output > Output Filename) for an output name the file system cannot
+    hold in ``folder``: checked before any work, so a run never fails at its first write."""
+    errors: list[InputError] = []
+    limit = _name_max(folder) if folder.is_dir() else 255
+    for out in deck.outputs:
+        longest = f"{out.filename}{_LONGEST_SUFFIX}"
+        try:
+            size = len(os.fsencode(longest))
+        except UnicodeError:
+            errors.append(InputError(f"'Output Filename' {out.params.output_filename!r} cannot be a file name on this system",
+                                     file=deck.file, path=out.path + ("Output Filename",), fix="use plain letters, digits, '-' and '_'"))
+            continue
+        if size > limit:
+            errors.append(InputError(
+                f"'Output Filename' is {len(out.params.output_filename)} characters: the file {out.filename[:20]}...{_LONGEST_SUFFIX} "
+                f"would have a {size}-byte name, more than the {limit} bytes this file system allows",
+                file=deck.file, path=out.path + ("Output Filename",),
+                fix=f"give a name of at most {limit - len(_LONGEST_SUFFIX)} bytes"))
+    raise_collected(errors)
+
+
+class OutputLock:
+    """An exclusive lock on an output name in a folder (``NAME.lock``, ``fcntl.flock``): a second
+    run writing the same files is refused at start. The kernel drops the lock when its process
+    ends, however it ends, so a crashed run never blocks the next one; the file is removed when
+    the lock is released."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self._fd: int | None = None
+
+    def acquire(self) -> bool:
+        """True if taken; False if another live process holds it. OSError for a folder that
+        cannot be written."""
+        import fcntl
+
+        while True:
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT | getattr(os, "O_CLOEXEC", 0), 0o644)
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError as exc:
+                os.close(fd)
+                if exc.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
+                    return False
+                raise
+            try:  # the holder before us may have removed the file after we opened it: retry
+                same = os.fstat(fd).st_ino == os.stat(self.path).st_ino
+            except FileNotFoundError:
+                same = False
+            if same:
+                break
+            os.close(fd)
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()}\n".encode())
+        self._fd = fd
+        return True
+
+    def holder(self) -> str:
+        try:
+            return self.path.read_text().strip()
+        except OSError:
+            return ""
+
+    def release(self) -> None:
+        if self._fd is None:
+            return
+        try:
+            os.unlink(self.path)  # while still held: nobody can take a lock on a removed file
+        except OSError:
+            pass
+        os.close(self._fd)
+        self._fd = None
+
+
+def lock_outputs(deck: "Deck", folder: Path) -> list[OutputLock]:
+    """Lock every output name of the deck in ``folder`` (rank 0 only: the one that writes).
+    InputError for a name another run is writing, or a folder where no file can be created."""
+    locks: list[OutputLock] = []
+    try:
+        for out in deck.outputs:
+            lock = OutputLock(folder / f"{out.filename}.lock")
+            key = out.path + ("Output Filename",)
+            try:
+                taken = lock.acquire()
+            except OSError as exc:
+                if exc.errno == errno.ENAMETOOLONG:
+                    raise InputError(f"the output path {str(folder / out.filename)!r} is too long for this file system",
+                                     file=deck.file, path=key, fix="give a shorter Output Filename or --output-dir") from None
+                raise InputError(f"cannot create files in the output folder {str(folder)!r}: {exc.strerror or exc}",
+                                 file=deck.file, path=key, fix="give a folder you can write to (--output-dir)") from None
+            if not taken:
+                who = lock.holder()
+                raise InputError(
+                    f"another run{f' (process {who})' if who.isdigit() else ''} is writing {out.filename}.e in {str(folder)!r} "
+                    f"(lock {lock.path.name}); two runs writing the same files would destroy each other's output",
+                    file=deck.file, path=key, fix="wait for it to end, or give this run another --output-dir or Output Filename")
+            locks.append(lock)
+    except BaseException:
+        release_locks(locks)
+        raise
+    return locks
+
+
+def release_locks(locks: list[OutputLock]) -> None:
+    for lock in locks:
+        lock.release()
 
 #: point fields every deck may write without a compute (allocated on request when not already)
 STANDARD_FIELDS = {
@@ -99,15 +219,16 @@ class OutputManager:
                 self.variables[name] = Variable(name, FieldSpec(name, Relation.NODE, 1, Temporal.TWO_STEP), None)
                 return self.variables[name]
             if path is not None:
-                known = sorted(set(STANDARD_FIELDS) | set(material_fields) | set(labels) | set(self._parameterless(registry)))
-                close = difflib.get_close_matches(name, known, n=3, cutoff=0.6)
-                fix = f"did you mean {' or '.join(map(repr, close))}?" if close else f"known variables: {', '.join(known)}"
-                errors.append(InputError(f"unknown output variable {name!r}", file=deck.file, path=path, fix=fix))
+                errors.append(self._unknown_variable(name, path, material_fields, labels))
             return None
 
         for out in deck.outputs:
             for var in out.variables:
                 resolve(var, out.path + ("Output Variables", var))
+            off = [str(k) for k, v in out.params.output_variables.items() if v is False or str(v).strip().lower() == "false"]
+            if off:  # Peridigm writes every listed variable, whatever its value
+                log.warning("%s: %s: %s set to false but written all the same (Peridigm writes every listed variable, whatever its value); "
+                            "remove %s from Output Variables to leave it out", deck.file, " > ".join(out.path), ", ".join(off), "them" if len(off) > 1 else "it")
         taken = set(STANDARD_FIELDS) | set(material_fields) | set(sim.fields.specs) | set(registry.names("compute"))
         for entry in deck.computes:
             if entry.name in taken:
@@ -130,6 +251,34 @@ class OutputManager:
                 errors.append(InputError(f"writes the same file as {first.entry.section!r} ({w.path.name})", file=deck.file,
                                          path=w.entry.path + ("Output Filename",), fix="give each output section its own Output Filename"))
         raise_collected(errors)
+
+    def _unknown_variable(self, name: str, path, material_fields, labels) -> InputError:
+        """One line for an output variable nothing in this deck produces: the models that
+        would (a deck whose material changed), else the close names."""
+        deck = self.sim.deck
+        by = model_producers(deck.registry).get(name)
+        if by:
+            used = {"material": sorted({deck.materials[b.material].model for b in deck.blocks if b.material in deck.materials}),
+                    "damage model": sorted({deck.damage_models[b.damage_model].model for b in deck.blocks
+                                            if b.damage_model in deck.damage_models})}
+            parts = []
+            for kind in ("material", "damage model"):
+                names = by.get(kind, [])
+                if names:
+                    names = sorted(names, key=lambda n: (len(n), n))  # the shortest names: the line stays short
+                    shown = ", ".join(names[:3]) + (f" and {len(names) - 3} more" if len(names) > 3 else "")
+                    parts.append(f"the {shown} {kind}{'s' if len(names) > 1 else ''}")
+            kinds = [k for k in ("material", "damage model") if by.get(k)]
+            mine = "; ".join(f"this deck's {k}s ({', '.join(used[k]) or 'none'})" for k in kinds)
+            return InputError(f"produced by {' and '.join(parts)}; {mine} do not", file=deck.file, path=path,
+                              fix=f"remove it or change the {' or '.join(kinds)}")
+        known = sorted(set(STANDARD_FIELDS) | set(material_fields) | set(labels) | set(self._parameterless(deck.registry)))
+        close = difflib.get_close_matches(name, known, n=3, cutoff=0.6)
+        if close:
+            fix = f"did you mean {' or '.join(map(repr, close))}?"
+        else:
+            fix = f"this deck can write {', '.join(known[:8])}, ... ({len(known)} in all; 'peridyn plugins' lists the computes)"
+        return InputError(f"unknown output variable {name!r}", file=deck.file, path=path, fix=fix)
 
     def _model_fields(self) -> dict[str, FieldSpec]:
         out: dict[str, FieldSpec] = {}
@@ -204,6 +353,52 @@ class OutputManager:
         frames stay in ``NAME.partial.e`` and an earlier ``NAME.e`` is left as it was."""
         for w in self.writers:
             w.close(complete)
+
+
+_PRODUCERS: dict[int, dict[str, dict[str, list[str]]]] = {}
+
+
+def _stand_in_values(params_cls) -> dict:
+    """Values for a model's required parameters (and a pair of elastic moduli) that let it be
+    built to ask which fields it declares; never used to compute."""
+    values = {}
+    for fname, f in params_cls.model_fields.items():
+        if fname in ("bulk_modulus", "shear_modulus"):
+            values[fname] = 1.0
+        elif f.is_required():
+            ann = f.annotation
+            values[fname] = 1 if ann is int else False if ann is bool else "1.0" if ann is str else 1.0
+    return values
+
+
+def model_producers(registry) -> dict[str, dict[str, list[str]]]:
+    """variable -> {"material" | "damage model": [model names]}: the point fields each
+    installed material and damage model declares with its default parameters (cached per
+    registry). A model that cannot be built without its parameters is left out."""
+    cached = _PRODUCERS.get(id(registry))
+    if cached is not None:
+        return cached
+    out: dict[str, dict[str, list[str]]] = {}
+    for kind, human in (("material", "material"), ("damage", "damage model")):
+        for name, cls in registry.all_classes(kind).items():
+            if isinstance(cls, Exception) or getattr(cls, "Params", None) is None:
+                continue
+            try:
+                params = cls.Params.model_construct(**_stand_in_values(cls.Params))
+                obj = cls(params, horizon=1.0, options={}) if kind == "material" else cls(params, options={})
+                specs = list(obj.fields()) + list(getattr(obj, "output_fields", lambda: [])())
+            except Exception:  # needs a parameter it was not given
+                continue
+            for spec in specs:
+                if spec.relation is not Relation.BOND:
+                    names = out.setdefault(spec.name, {}).setdefault(human, [])
+                    if name not in names:
+                        names.append(name)
+    for by in out.values():
+        for names in by.values():
+            names.sort()
+    _PRODUCERS[id(registry)] = out
+    return out
 
 
 class OutputWriter:

@@ -46,10 +46,13 @@ class Simulation:
     ``advance`` (swap N and NP1).
     """
 
-    def __init__(self, deck: Deck, *, comm=None, output_dir: str | Path | None = None, progress: bool = True) -> None:
+    def __init__(self, deck: Deck, *, comm=None, output_dir: str | Path | None = None, progress: bool = True,
+                 write_files: bool = True) -> None:
         self.deck = deck
         self.comm = comm or SerialComm()
         self.output_dir = Path(output_dir) if output_dir is not None else Path.cwd()
+        #: False for ``peridyn check``: set-up creates no file (no Interfaces.e)
+        self.write_files = write_files
         self.progress = progress
         self.time = 0.0
         self.time_prev = 0.0
@@ -60,8 +63,11 @@ class Simulation:
         self.stats: dict[str, Any] = {}
         self.energy = None  # set by explicit solvers (EnergyMonitor)
         t0 = _time.perf_counter()
+        from ..deck.expressions import random_seed
+
         try:
-            self._setup()
+            with random_seed(getattr(deck, "random_seed", 0)):  # rnd() of every expression compiled in set-up
+                self._setup()
         except InputError as exc:  # every message names a file
             raise exc.in_file(deck.file) from None
         self.timers["setup"] = _time.perf_counter() - t0
@@ -191,9 +197,9 @@ class Simulation:
             mask = self.block_index_mothership == k
             h = entry.horizon
             if isinstance(h, str):
-                expr = compile_expression(h, ("x", "y", "z"))
+                expr = compile_expression(h, ("x", "y", "z"), stream=" > ".join(map(str, entry.path + ("Horizon",))))
                 xs = disc.x[mask]
-                values = np.broadcast_to(np.asarray(expr(x=xs[:, 0], y=xs[:, 1], z=xs[:, 2]), float), (int(mask.sum()),))
+                values = np.broadcast_to(np.asarray(expr(disc.gid[mask], x=xs[:, 0], y=xs[:, 1], z=xs[:, 2]), float), (int(mask.sum()),))
                 bad = ~(np.isfinite(values) & (values > 0))
                 if np.any(bad):
                     at = xs[int(np.argmax(bad))]

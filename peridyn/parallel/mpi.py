@@ -7,7 +7,9 @@ else is a global reduction or a gather of output to rank 0.
 """
 from __future__ import annotations
 
+import atexit
 import time
+import weakref
 
 import numpy as np
 
@@ -26,6 +28,29 @@ def _mpi():
     from mpi4py import MPI
 
     return MPI
+
+
+#: every Halo alive: their persistent requests are freed before MPI is finalized (MPICH prints
+#: "freeing inactive persistent request" for each one left at MPI_Finalize)
+_HALOS: "weakref.WeakSet[Halo]" = weakref.WeakSet()
+_registered = False
+
+
+def free_persistent_requests() -> None:
+    """Free the persistent requests of every halo (at exit, before MPI_Finalize; a halo used
+    afterwards plans its messages again)."""
+    for halo in list(_HALOS):
+        halo.free()
+
+
+def _register_at_exit() -> None:
+    """After mpi4py is imported: Python runs exit handlers last-registered first, and mpi4py
+    finalizes MPI after them, so the requests are freed while MPI still works."""
+    global _registered
+    if not _registered:
+        _mpi()
+        atexit.register(free_persistent_requests)
+        _registered = True
 
 
 def _message_bytes() -> int:
@@ -87,6 +112,15 @@ class Halo:
         self.bytes_sent = 0
         self.exchanges = 0
         self.seconds = 0.0
+        _register_at_exit()
+        _HALOS.add(self)
+
+    def __del__(self) -> None:
+        try:
+            if not _mpi().Is_finalized():
+                self.free()
+        except Exception:  # pragma: no cover - interpreter shutdown
+            pass
 
     @property
     def num_ghosts(self) -> int:
@@ -146,11 +180,16 @@ class Halo:
         self.end(self.begin(array))
 
     def free(self) -> None:
-        """Release the persistent requests (a plan that is replaced, e.g. contact ghosts)."""
+        """Release the persistent requests (a plan that is replaced, e.g. contact ghosts, and
+        every plan at exit); an exchange in flight is completed first."""
         for plans in self._plans.values():
             for plan in plans:
+                if plan.busy:
+                    _mpi().Request.Waitall(plan.requests)
+                    plan.busy = False
                 for r in plan.requests:
-                    r.Free()
+                    if r:  # not MPI_REQUEST_NULL
+                        r.Free()
         self._plans.clear()
 
     def reverse_sum(self, array: np.ndarray) -> None:

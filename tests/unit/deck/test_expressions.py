@@ -435,24 +435,81 @@ def test_deep_nesting_is_an_error_not_a_crash() -> None:
 
 
 def test_rnd_is_reproducible_and_in_range() -> None:
-    e = compile_expression("rnd(0.5) + 0*x", XYZT)
-    x = np.zeros(1000)
     set_random_seed(7)
-    a = e(x=x)
-    s1 = e(x=1.0)
-    set_random_seed(7)
-    b = e(x=x)
-    s2 = e(x=1.0)
-    assert_array_equal(a, b)
-    assert s1 == s2 and type(s1) is float
-    assert np.all(a >= -0.5) and np.all(a <= 0.5)
-    assert a.min() < -0.4 and a.max() > 0.4 and len(np.unique(a)) > 990
+    e = compile_expression("rnd(0.5) + 0*x", XYZT)  # the seed is bound when compiled
     set_random_seed(8)
-    assert not np.array_equal(e(x=x), a)
+    x = np.zeros(1000)
+    ids = np.arange(1000)
+    a = e(ids, x=x)
+    s1 = e(x=1.0)
+    assert_array_equal(a, compile_expression("rnd(0.5) + 0*x", XYZT, seed=7)(ids, x=x))
+    assert s1 == e(x=1.0) and type(s1) is float
+    assert np.all(a >= -0.5) and np.all(a < 0.5)
+    assert a.min() < -0.4 and a.max() > 0.4 and len(np.unique(a)) > 990
+    assert not np.array_equal(compile_expression("rnd(0.5) + 0*x", XYZT)(ids, x=x), a)  # seed 8
     set_random_seed()  # default seed 0
-    c = e(x=x)
-    set_random_seed(0)
-    assert_array_equal(e(x=x), c)
+    assert_array_equal(compile_expression("rnd(0.5) + 0*x", XYZT)(ids, x=x),
+                       compile_expression("rnd(0.5) + 0*x", XYZT, seed=0)(ids, x=x))
+
+
+def test_rnd_is_a_pure_function_of_seed_stream_call_and_point_id() -> None:
+    """The value at a point does not depend on which other points are evaluated with it, in
+    what order, or on anything evaluated before (ranks, earlier runs in the process)."""
+    ids = np.arange(5000, dtype=np.int64)
+    e = compile_expression("rnd(2)", XYZT, seed=3, stream="Boundary Conditions > A")
+    whole = e(ids, x=np.zeros(ids.size))
+    # two "ranks", each with a part of the points in its own order
+    perm = np.random.default_rng(1).permutation(ids.size)
+    part0, part1 = perm[:2000], perm[2000:]
+    for _ in range(3):  # and evaluated again, any number of times
+        assert_array_equal(e(ids[part0], x=np.zeros(part0.size)), whole[part0])
+        assert_array_equal(e(ids[part1], x=np.ones(part1.size)), whole[part1])  # inputs do not matter with ids
+    assert_array_equal(compile_expression("rnd(2)", XYZT, seed=3, stream="Boundary Conditions > A")(ids, x=0.0), whole)
+    assert np.all(np.abs(whole) <= 2.0) and abs(float(whole.mean())) < 0.1
+    # another stream, another seed, another point: other numbers
+    assert not np.any(compile_expression("rnd(2)", XYZT, seed=3, stream="Boundary Conditions > B")(ids) == whole)
+    assert not np.any(compile_expression("rnd(2)", XYZT, seed=4, stream="Boundary Conditions > A")(ids) == whole)
+    assert len(np.unique(whole)) == ids.size
+    # the amplitude scales the same pattern (the stream, not the text, names it)
+    assert_allclose(compile_expression("rnd(4)", XYZT, seed=3, stream="Boundary Conditions > A")(ids), 2 * whole)
+
+
+def test_two_rnd_calls_of_one_expression_differ() -> None:
+    ids = np.arange(1000)
+    e = compile_expression("rnd(1) - rnd(1)", XYZT)
+    assert np.all(e(ids) != 0.0)
+    p = compile_expression("double a = rnd(1); double b = rnd(1); value = a - b;", XYZT)
+    assert np.all(p(ids) != 0.0)
+
+
+def test_rnd_inside_a_branch_uses_the_point_ids() -> None:
+    ids = np.arange(10, 20)
+    x = np.linspace(-1, 1, 10)
+    e = compile_expression("if (x > 0) { value = rnd(1); } else { value = 5; }", XYZT)
+    v = e(ids, x=x)
+    assert np.all(v[x <= 0] == 5.0)
+    # the points of the branch get the values they get when evaluated alone
+    for i in np.flatnonzero(x > 0):
+        assert v[i] == e(ids[i : i + 1], x=x[i : i + 1])[0]
+
+
+def test_rnd_without_point_ids_is_a_function_of_the_inputs() -> None:
+    e = compile_expression("rnd(1)", ("t",))
+    assert e(t=0.5) == e(t=0.5) and e(t=0.5) != e(t=0.25)
+    arr = e(t=np.array([0.25, 0.5, 0.25]))
+    assert arr[0] == arr[2] == e(t=0.25) and arr[1] == e(t=0.5)
+
+
+def test_random_seed_context_binds_the_seed_at_compile_time() -> None:
+    from peridyn.deck.expressions import random_seed
+
+    ids = np.arange(100)
+    with random_seed(11):
+        inside = compile_expression("rnd(1)", XYZT)
+    outside = compile_expression("rnd(1)", XYZT)
+    assert inside.seed == 11 and outside.seed == 0
+    assert_array_equal(inside(ids), compile_expression("rnd(1)", XYZT, seed=11)(ids))
+    assert not np.array_equal(inside(ids), outside(ids))
 
 
 # ---------------------------------------------------------------------------------------------
