@@ -115,8 +115,12 @@ def lock_outputs(deck: "Deck", folder: Path) -> list[OutputLock]:
     """Lock every output name of the deck in ``folder`` (rank 0 only: the one that writes).
     InputError for a name another run is writing, or a folder where no file can be created."""
     locks: list[OutputLock] = []
+    names: set[str] = set()
     try:
         for out in deck.outputs:
+            if out.filename in names:  # one run's NAME.e and NAME.h (a history section) share a name
+                continue
+            names.add(out.filename)
             lock = OutputLock(folder / f"{out.filename}.lock")
             key = out.path + ("Output Filename",)
             try:

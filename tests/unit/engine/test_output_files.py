@@ -178,6 +178,23 @@ def test_the_lock_is_released_after_a_run_and_a_stale_lock_does_not_block(tmp_pa
     assert run(deck) == ExitCode.OK  # and the next run may go
 
 
+def test_an_output_and_a_history_section_of_one_name_are_one_run(tmp_path):
+    """Peridigm's decks write NAME.e and NAME.h (a section of global variables only) under one
+    Output Filename: the run's own second section is not "another run"."""
+    deck = write(tmp_path)
+    deck.write_text(deck.read_text() + textwrap.dedent(
+        """
+        Output History:
+          Output Filename: "run"
+          Output Frequency: 1
+          Output Variables:
+            Global_Kinetic_Energy: true
+        """))
+    assert run(deck) == ExitCode.OK
+    assert (tmp_path / "run.e").exists() and (tmp_path / "run.h").exists()
+    assert not (tmp_path / "run.lock").exists()
+
+
 def test_the_lock_is_released_when_a_run_fails(tmp_path, monkeypatch):
     deck = write(tmp_path)
     from peridyn.engine.simulation import Simulation
