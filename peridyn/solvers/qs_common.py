@@ -15,6 +15,8 @@ SECOND_CANDIDATES = tuple(
     + [0.75, 1.0, 1.5, 2.0, 5.0, 10.0]
 )
 PURE_NEWTON_STEPS = 50
+#: most load steps 'Reduce all remaining load steps' may create (each halving doubles them)
+MAX_LOAD_STEPS = 10_000_000
 DAMPED_TANGENT_INTERVAL = 8
 
 
@@ -34,6 +36,9 @@ def reduce_remaining_load_steps(times: list[float], step: int, t_cur: float, dt:
     later times become t_cur + (i+1) dt, appended while the last one is below the original final
     time (so the last may pass it, as in Peridigm)."""
     del times[step + 1 :]
+    if not (dt > 0.0 and (t_final - t_cur) / dt <= MAX_LOAD_STEPS):
+        raise LoadStepError(f"'Reduce all remaining load steps' would need {(t_final - t_cur) / dt:.3g} load steps of {dt:.3g} "
+                            f"from t = {t_cur:.6g} to {t_final:.6g} (at most {MAX_LOAD_STEPS:.0e}); allow fewer load step reductions")
     i = 0
     while times[step + i] < t_final:
         times.append(t_cur + (i + 1) * dt)

@@ -62,6 +62,12 @@ log = logging.getLogger("peridyn.solver")
 NEWTON, CAUCHY, DOGLEG = "Newton", "Cauchy", "Dogleg"
 
 
+#: inner iterations of one NOX step before it counts as failed (the radius contracts by at most
+#: 'Contraction Factor' < 1 per try, so a sound problem meets 'Minimum Trust Region Radius' long
+#: before; a NaN radius, from a NaN Newton step, never would)
+MAX_INNER_ITERATIONS = 10_000
+
+
 class TrustRegionError(RuntimeError):
     """NOX throws "NOX Error" (an invalid dogleg computation, a bad parameter)."""
 
@@ -283,8 +289,10 @@ class TrustRegionSolver:
         self.niter += 1
         inner = "unconverged"
         s_new = F_new = None
+        tries = 0
         while inner == "unconverged":
             self.counters.inner_iterations += 1
+            tries += 1
             if norm_c >= self.radius:
                 step_type, step, d = CAUCHY, self.radius / norm_c, cauchy
             elif eta_cauchy <= eta:
@@ -330,7 +338,7 @@ class TrustRegionSolver:
             log.debug("trust region: radius %.3e ratio %.3g f %.6e old %.6e %s", self.radius, ratio, math.sqrt(2 * f_new), math.sqrt(2 * f_old), step_type)
             if ratio >= o.minimum_improvement_ratio:
                 inner = "converged"
-            elif self.radius <= o.minimum_radius:
+            elif self.radius <= o.minimum_radius or tries >= MAX_INNER_ITERATIONS:
                 inner = "failed"
             if ratio < o.contraction_trigger_ratio:
                 if step_type == NEWTON:
@@ -377,8 +385,10 @@ class TrustRegionSolver:
         ratio = -1.0
         step_type = NEWTON
         s_new, F_new = s_old, F_old
-        while ratio < o.minimum_improvement_ratio and self.radius > o.minimum_radius:
+        tries = 0
+        while ratio < o.minimum_improvement_ratio and self.radius > o.minimum_radius and tries < MAX_INNER_ITERATIONS:
             self.counters.inner_iterations += 1
+            tries += 1
             norm_n = p.norm(newton)
             norm_c = p.norm(cauchy)
             if norm_n <= self.radius:

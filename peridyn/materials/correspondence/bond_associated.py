@@ -208,8 +208,12 @@ class BondAssociatedCorrespondence(Material):
         gid = int(block.extras["gid"][i]) + 1 if "gid" in block.extras else i + 1
         where = f"point {gid} (block {block.name})"
         if code == kern.NO_CONVERGENCE:
-            raise InstabilityError(f"{self.name}: the plastic radial return did not converge in {kern.MAX_NEWTON} Newton iterations "
-                                   f"at {where} (Peridigm aborts the run here too)", collective=False)
+            path = self.options.get("path") or ()
+            label = f"{self.name} {str(path[-1])!r}" if path else self.name
+            x = block.fields["Model_Coordinates"][i]
+            raise InstabilityError(f"{label}: the plastic radial return did not converge in {kern.MAX_NEWTON} Newton iterations (or its "
+                                   f"residual is not finite) at {where}, x = ({x[0]:.6g}, {x[1]:.6g}, {x[2]:.6g}), t = {block.time:.6g} "
+                                   "(Peridigm aborts the run here too)", collective=False)
         what = "deformation gradient" if code == kern.SINGULAR_NODE_F else "deformation gradient of a bond"
         raise InstabilityError(f"{self.name}: the {what} of {where} is singular: every point needs at least three neighbors "
                                "that do not lie in one plane (Peridigm stops here too)", collective=False)

@@ -213,7 +213,8 @@ def _slope(model, e, p0, p1, p2, p3):
 @njit(cache=True, inline="always", error_model="numpy")
 def _radial_return(model, sN, di, eN, dt, K, G, p0, p1, p2, p3):
     """§5.7 (``radialReturnPowerlaw``/``radialReturnSaturationExponential``):
-    (σ_NP1, vm, eqps_NP1, iterations); iterations = MAX_NEWTON + 1 when Newton did not converge."""
+    (σ_NP1, vm, eqps_NP1, iterations); iterations = MAX_NEWTON + 1 when Newton did not converge
+    (or its residual is NaN)."""
     de, dth = _strain_increment(di, dt)
     sig = _trial_stress(sN, de, dth, K, G)
     s, _ = _deviator(sig)
@@ -228,7 +229,7 @@ def _radial_return(model, sN, di, eN, dt, K, G, p0, p1, p2, p3):
     gam = 0.0
     e = eN
     its = 0
-    while abs(f) > tol:
+    while not abs(f) <= tol:  # a NaN residual iterates to the cap as well: reported, never taken as converged
         its += 1
         if its > MAX_NEWTON:
             return sig, vm_tr - (3.0 * G) * gam, e, its

@@ -11,6 +11,8 @@ M(i→j) η. The engine gathers T from both bond ends (the non-ordinary path of
 """
 from __future__ import annotations
 
+import logging
+import math
 from typing import Any, ClassVar
 
 import numpy as np
@@ -24,12 +26,16 @@ from . import params as P
 from .forces import _force_state, _hourglass_bond, partial_stress_kernel
 from .kinematics import kinematics_kernel, shape_tensor_kernel
 from .stress import (
+    MAX_BISECTION,
+    NEEDLEMAN_NON_FINITE,
     elastic_plastic_stress_kernel,
     elastic_stress_kernel,
     isotropic_hardening_stress_kernel,
     needleman_stress_kernel,
     rotate_piola_kernel,
 )
+
+log = logging.getLogger(__name__)
 
 PI = 3.141592653589793
 
@@ -133,6 +139,14 @@ class ClassicCorrespondence(Material):
             "neighbors that do not lie in one plane (Peridigm stops here too)",
             collective=False,
         )
+
+    def _where(self, block: BlockView, i: int) -> str:
+        """``material 'deck name', point <global id> (block b, x = (..)) at t = ..`` of local point i."""
+        path = self.options.get("path") or ()
+        label = f"{self.name} {str(path[-1])!r}" if path else self.name
+        gid = int(block.extras["gid"][i]) + 1 if "gid" in block.extras else i + 1
+        x = block.fields["Model_Coordinates"][i]
+        return f"{label}, point {gid} (block {block.name}, x = ({x[0]:.6g}, {x[1]:.6g}, {x[2]:.6g})) at t = {block.time:.6g}"
 
     # -- the Material contract ----------------------------------------------------------------
     def initialize(self, block: BlockView) -> None:
@@ -321,11 +335,35 @@ class ViscoplasticNeedlemanCorrespondence(ClassicCorrespondence):
     def _update_stress(self, block: BlockView, d: np.ndarray) -> None:
         s, p = block.fields, self.params
         on, fx, fy, fz, size, mag = _flaw_args(p)
-        needleman_stress_kernel(
+        bad, status, elastic = needleman_stress_kernel(
             block.start, block.stop, d, s.n("Unrotated_Cauchy_Stress"), s.n("Equivalent_Plastic_Strain"), float(block.time_step),
             self.K, self.G, float(p.yield_stress), float(p.strain_hardening_exponent), float(p.rate_hardening_exponent),
             float(p.reference_strain_rate), float(p.reference_strain_0), float(p.reference_strain_1), on, s["Model_Coordinates"],
             fx, fy, fz, size, mag, s.np1("Unrotated_Cauchy_Stress"), s.np1("Equivalent_Plastic_Strain"), self._vm(block),
+        )
+        if elastic:
+            log.debug("%s: the plastic multiplier bisection found no root at %d point(s); they stay elastic this step (as in Peridigm)",
+                      self.name, elastic)
+        if bad >= 0:
+            self._local_failure(block, int(bad), int(status))
+
+    def _local_failure(self, block: BlockView, i: int, status: int) -> None:
+        """Stop the run (exit 3) for a point whose stress update failed (status of
+        :func:`.stress.needleman_point`), naming the material, the point and its yield stress."""
+        p = self.params
+        sr = float(p.yield_stress)
+        if p.flaw is not None:
+            fx, fy, fz, size, mag = p.flaw
+            x = block.fields["Model_Coordinates"][i]
+            r2 = (x[0] - fx) ** 2 + (x[1] - fy) ** 2 + (x[2] - fz) ** 2
+            sr = sr * (1.0 - mag * math.exp(-r2 / size / size))
+        if status == NEEDLEMAN_NON_FINITE:
+            what = "the stress update gave a non-finite stress or plastic strain"
+        else:
+            what = f"the plastic multiplier bisection found no root in [0, 1] ({MAX_BISECTION} iterations)"
+        raise InstabilityError(
+            f"{self._where(block, i)}: {what}; the yield stress there is {sr:.6g}: check 'Yield Stress', the flaw and the "
+            "hardening exponents, or shorten the time step", collective=False,
         )
 
     def _stress_model(self) -> tuple[int, np.ndarray]:

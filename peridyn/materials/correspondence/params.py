@@ -60,7 +60,9 @@ class FlawParams(YieldParams):
     flaw_location_y: float | None = Field(None, alias="Flaw Location Y", description="flaw centre y (L)")
     flaw_location_z: float | None = Field(None, alias="Flaw Location Z", description="flaw centre z (L)")
     flaw_size: float | None = Field(None, alias="Flaw Size", gt=0, description="flaw radius s (L)")
-    flaw_magnitude: float | None = Field(None, alias="Flaw Magnitude", description="relative depth m of the yield stress dip")
+    flaw_magnitude: float | None = Field(
+        None, alias="Flaw Magnitude", description="relative depth m of the yield stress dip (-); 0 to 1 when 'Enable Flaw' is true"
+    )
 
     @model_validator(mode="after")
     def _flaw_complete(self):
@@ -70,6 +72,10 @@ class FlawParams(YieldParams):
                                        ("Flaw Magnitude", self.flaw_magnitude)) if v is None]
             if missing:
                 raise ValueError(f"'Enable Flaw' is given, so {', '.join(repr(m) for m in missing)} must be given too (as in Peridigm)")
+        if self.enable_flaw and not 0.0 <= self.flaw_magnitude <= 1.0:
+            raise ValueError(f"'Flaw Magnitude' = {self.flaw_magnitude!r} must be between 0 and 1 when 'Enable Flaw' is true: it is the "
+                             "relative depth of the yield stress dip (1 takes the yield stress to 0 at the flaw centre, more makes it "
+                             "negative and the plastic update has no solution)")
         return self
 
     @property
@@ -89,8 +95,10 @@ class IsotropicHardeningCorrespondenceParams(FlawParams):
 
 
 class ViscoplasticNeedlemanCorrespondenceParams(FlawParams):
-    strain_hardening_exponent: float = Field(alias="Strain Hardening Exponent", description="n")
-    rate_hardening_exponent: float = Field(alias="Rate Hardening Exponent", description="m")
+    strain_hardening_exponent: float = Field(alias="Strain Hardening Exponent", ge=0, description="n of (1 + eqps/epsilon_0)^n (-)")
+    rate_hardening_exponent: float = Field(
+        alias="Rate Hardening Exponent", ge=0, description="m of (plastic rate / reference rate)^m (-); 0 is rate independent"
+    )
     reference_strain_rate: float = Field(alias="Reference Strain Rate", gt=0, description="reference plastic strain rate (1/T)")
     reference_strain_0: float = Field(alias="Reference Strain 0", gt=0, description="epsilon_0 of the hardening law")
     reference_strain_1: float = Field(alias="Reference Strain 1", gt=0, description="epsilon_1 of the softening term")

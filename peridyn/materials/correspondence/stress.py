@@ -24,7 +24,16 @@ from .tensor import inv3, load9, matmul, matmul_nt, matmul_nt_scaled, store9
 
 SQRT_2_3 = math.sqrt(2.0 / 3.0)
 SQRT_6 = math.sqrt(6.0)
-MAX_BISECTION = 100000
+#: bisection steps of §5.5 before it counts as not converged. Peridigm allows 100000; on [0, 1] in
+#: doubles the bisection has either stopped after about 1100 steps (the interval halves each step,
+#: collapses below 2^-1074, and a collapsed interval meets the stopping test at once) or is stuck
+#: at λ = 0 for good (|λ - λ_old|/|λ| is NaN there), so 2000 gives Peridigm's λ, flag and stress,
+#: 50 times sooner (tests/unit/materials/correspondence/test_local_caps.py)
+MAX_BISECTION = 2000
+#: status of :func:`needleman_point`: converged (or elastic), no root but elastic (Peridigm prints
+#: a message and goes on), no root and a plastic return to a λ that solves nothing, non-finite
+#: stress or plastic strain
+NEEDLEMAN_OK, NEEDLEMAN_NO_ROOT_ELASTIC, NEEDLEMAN_NO_ROOT, NEEDLEMAN_NON_FINITE = 0, 1, 2, 3
 
 
 # ------------------------------------------------------------------------------------------------
@@ -188,8 +197,8 @@ def needleman_plastic_multiplier(ebar, mq, eqps_n, sr, G, n, m, rate0, eps0, eps
     """(λ, iterations, converged) of §5.5 step 2: bisection on [0, 1] for
     f(λ) = (ē - λ) - ((1.0/2.0)/G) (sqrt(2/3) g(λ, eqps_N + λ) - |s_N|) (eqps argument without
     sqrt(2/3)), evaluating f at b and at the midpoint c, b <- c when f(b), f(c) share a strict
-    sign, else a <- c; stops when |λ - λ_old|/|λ| < 1e-6 on successive midpoints, or after 100000
-    iterations (not converged: Peridigm prints a message and keeps the last λ).
+    sign, else a <- c; stops when |λ - λ_old|/|λ| < 1e-6 on successive midpoints, or after
+    MAX_BISECTION iterations (not converged: Peridigm prints a message and keeps the last λ, 0).
     ebar: ē (-); mq: |s_N| (M/(L T^2)); eqps_n: eqps_N; sr: σ_r; G; n, m, rate0, eps0, eps1 and
     dt as in :func:`needleman_stress_kernel`."""
     a = 0.0
@@ -219,7 +228,11 @@ def needleman_plastic_multiplier(ebar, mq, eqps_n, sr, G, n, m, rate0, eps0, eps
 
 @njit(cache=True, error_model="numpy")
 def needleman_point(i, d, sigma_N, eqps_N, dt, K, G, sigma_y, n, m, rate0, eps0, eps1, flaw, x, fx, fy, fz, size, magnitude, sigma_NP1, eqps_NP1, vm):
-    """§5.5 for point i; returns 1 when the bisection did not converge, else 0."""
+    """§5.5 for point i. Returns NEEDLEMAN_OK; NEEDLEMAN_NO_ROOT_ELASTIC when the bisection did
+    not converge but the step stays elastic (as in Peridigm); NEEDLEMAN_NO_ROOT when it did not
+    converge and the stress was returned to the yield value of a λ that is no root;
+    NEEDLEMAN_NON_FINITE for a non-finite stress or plastic strain. The state is written all the
+    same."""
     de, dth = _strain_increment(load9(d, i), dt)
     sN = load9(sigma_N, i)
     sig = _trial_stress(sN, de, dth, K, G)
@@ -229,21 +242,24 @@ def needleman_point(i, d, sigma_N, eqps_N, dt, K, G, sigma_y, n, m, rate0, eps0,
     v = math.sqrt((3.0 / 2.0) * t)
     e = eqps_N[i]
     sr = _reduced_yield(sigma_y, flaw, x, i, fx, fy, fz, size, magnitude)
-    failed = 0
+    status = NEEDLEMAN_OK
     if not v < sr:
         ebar = _dot9(s, de) / mag_tr
         q, _ = _deviator(sN)
         mq = math.sqrt(_dot9(q, q))  # no 1e-20 floor here
         lam, _, converged = needleman_plastic_multiplier(ebar, mq, e, sr, G, n, m, rate0, eps0, eps1, dt)
-        failed = 0 if converged else 1
         f = _needleman_g(lam, e + SQRT_2_3 * lam, sr, n, m, rate0, eps0, eps1, dt)
+        if not converged:
+            status = NEEDLEMAN_NO_ROOT_ELASTIC if v <= f else NEEDLEMAN_NO_ROOT
         if v > f:
             sig, r, v = _return_to(s, p, mag_tr, f)
             e = _eqps_update(de, r, mag_tr, sN, G, e)
     store9(sigma_NP1, i, sig)
     eqps_NP1[i] = e
     vm[i] = v
-    return failed
+    if not (math.isfinite(e) and math.isfinite(_dot9(sig, sig))):
+        status = NEEDLEMAN_NON_FINITE
+    return status
 
 
 @njit(cache=True, error_model="numpy")
@@ -302,18 +318,23 @@ def needleman_stress_kernel(
 ):
     """§5.5 viscoplastic Needleman: strain hardening exponent n, rate hardening exponent m,
     reference strain rate rate0 (1/T), reference strains eps0, eps1; flaw as in
-    :func:`isotropic_hardening_stress_kernel`. Returns the number of points whose bisection did
-    not converge in 100000 iterations (Peridigm prints a message and goes on)."""
-    failed = np.zeros(max(stop - start, 0), dtype=np.int8)
+    :func:`isotropic_hardening_stress_kernel`. Returns (point, status, elastic_no_root): the
+    first point with status NEEDLEMAN_NO_ROOT or NEEDLEMAN_NON_FINITE and that status, or
+    (-1, 0), and the number of points whose bisection found no root but stayed elastic (Peridigm
+    prints a message for each and goes on). The caller stops the run for the former."""
+    status = np.zeros(max(stop - start, 0), dtype=np.int8)
     for i in prange(start, stop):
-        failed[i - start] = needleman_point(
+        status[i - start] = needleman_point(
             i, d, sigma_N, eqps_N, dt, K, G, sigma_y, n, m, rate0, eps0, eps1, flaw, x, flaw_x, flaw_y, flaw_z,
             flaw_size, flaw_magnitude, sigma_NP1, eqps_NP1, vm,
         )
-    count = 0
-    for k in range(failed.shape[0]):
-        count += failed[k]
-    return count
+    elastic = 0
+    for k in range(status.shape[0]):
+        if status[k] == NEEDLEMAN_NO_ROOT_ELASTIC:
+            elastic += 1
+        elif status[k] != NEEDLEMAN_OK:
+            return start + k, int(status[k]), elastic
+    return -1, 0, elastic
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
