@@ -12,7 +12,7 @@ import types
 import typing
 from typing import Any, ClassVar
 
-from pydantic import BaseModel, ConfigDict, ValidationInfo, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, model_validator
 
 #: deck values are never meant as numbers when they are booleans, and never as deck keys when
 #: they are Python attribute names; validation with this context key set enforces both
@@ -64,6 +64,47 @@ def _non_finite(value: Any) -> bool:
     return False
 
 
+class ParamKeyError(ValueError):
+    """A validator's problem with one deck key (``key``, its alias): the error then names that key's
+    deck path and line rather than its section's."""
+
+    def __init__(self, key: str | tuple[str, ...], message: str) -> None:
+        super().__init__(message)
+        self.key = key
+
+
+#: the smallest and largest magnitudes whose square is a normal double
+SQRT_TINY = math.sqrt(2.2250738585072014e-308)
+SQRT_HUGE = math.sqrt(1.7976931348623157e308)
+#: a stress this many times below (above) the elastic moduli is not representable in the products
+#: a model forms with both (sigma_y^2 / (K delta^5), ...)
+STRESS_RATIO_LIMIT = 1.0e100
+
+#: keys whose scale a dedicated check refuses with a clearer message (time steps and times:
+#: the step-count limits of peridyn.engine.limits; horizons: peridyn.engine.checks.horizon_scale)
+CHECKED_ELSEWHERE = frozenset({"Fixed dt", "Initial Time", "Final Time", "Horizon"})
+
+_BOUND_WORDS = {"gt": "greater than", "ge": "at least", "lt": "less than", "le": "at most"}
+_BOUND_TESTS = {"gt": lambda v, b: v > b, "ge": lambda v, b: v >= b, "lt": lambda v, b: v < b, "le": lambda v, b: v <= b}
+
+
+class UsedWhen:
+    """The range of a parameter that Peridigm reads only under some settings: checked only when
+    ``test(params)`` is true (``when`` says so in words); unused, any finite value is accepted,
+    as Peridigm runs such a deck. Non-finite values are refused always (``allow_inf_nan``)."""
+
+    def __init__(self, test: typing.Callable[[Any], bool], when: str, **bounds: float) -> None:
+        self.test, self.when, self.bounds = test, when, bounds
+
+    def problem(self, value: Any) -> str | None:
+        if value is None or isinstance(value, bool) or not isinstance(value, (int, float)):
+            return None
+        for kind, bound in self.bounds.items():
+            if not _BOUND_TESTS[kind](value, bound):
+                return f"must be {_BOUND_WORDS[kind]} {bound:g} (got {value!r}) when {self.when}"
+        return None
+
+
 class ModelParams(BaseModel):
     """Base of plugin parameter models: frozen, unknown keys forbidden, Peridigm aliases.
 
@@ -74,6 +115,52 @@ class ModelParams(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid", populate_by_name=True, str_strip_whitespace=False, allow_inf_nan=False)
 
     ignored_keys: ClassVar[frozenset[str]] = frozenset()
+    #: Python field name -> :class:`UsedWhen`: ranges that apply only when the settings make the
+    #: parameter used (merged along the class hierarchy; a subclass adds or overrides entries)
+    used_when: ClassVar[dict[str, UsedWhen]] = {}
+
+    @model_validator(mode="after")
+    def _representable(self):
+        """A parameter whose square under- or overflows a double (|v| below about 1.5e-154 or above
+        1.3e154, zero aside) is refused: the products the models form with it (sigma_y^2, K theta^2,
+        rho v^2 ...) would become 0 or inf and the run would stop as unstable or with NaN."""
+        for name, field in type(self).model_fields.items():
+            value = getattr(self, name, None)
+            if isinstance(value, bool) or not isinstance(value, float) or value == 0.0 or not math.isfinite(value):
+                continue
+            if not self.is_used(name) or (field.alias or name) in CHECKED_ELSEWHERE:
+                continue
+            if not SQRT_TINY <= abs(value) <= SQRT_HUGE:
+                alias = field.alias or name
+                what = "underflows to 0" if abs(value) < SQRT_TINY else "overflows to inf"
+                raise ParamKeyError(alias, f"{alias!r} = {value!r} cannot be used: its square {what} in double precision, so the "
+                                           "products the model forms with it would too and the run would stop as unstable or with NaN; "
+                                           "use units in which it lies between 1e-150 and 1e150")
+        return self
+
+    @classmethod
+    def _used_rules(cls) -> dict[str, UsedWhen]:
+        rules: dict[str, UsedWhen] = {}
+        for klass in reversed(cls.__mro__):
+            rules.update(klass.__dict__.get("used_when", {}))
+        return rules
+
+    def is_used(self, name: str) -> bool:
+        """Whether the settings make the parameter ``name`` (Python name) used (see ``used_when``)."""
+        rule = self._used_rules().get(name)
+        return rule is None or bool(rule.test(self))
+
+    @model_validator(mode="after")
+    def _used_ranges(self):
+        for name, rule in self._used_rules().items():
+            field = type(self).model_fields.get(name)
+            if field is None or not rule.test(self):
+                continue
+            problem = rule.problem(getattr(self, name))
+            if problem:
+                alias = field.alias or name
+                raise ParamKeyError(alias, f"{alias!r} {problem}")
+        return self
 
     @model_validator(mode="before")
     @classmethod
@@ -107,6 +194,57 @@ class ModelParams(BaseModel):
     def deck_names(cls) -> list[str]:
         """The deck names (aliases) of all parameters, in declaration order."""
         return [f.alias or name for name, f in cls.model_fields.items()]
+
+
+#: the type and range of deck keys that some models ignore, where no loaded model reads them (the
+#: range is the one the models that read the key give it); an ignored key's value is still checked
+IGNORED_KEY_TYPES: dict[str, Any] = {
+    "Hourglass Coefficient": typing.Annotated[float, Field(ge=0)],
+    "Apply Shear Correction Factor": bool,
+    "Apply Automatic Differentiation Jacobian": bool,
+    "Verbose": bool,
+    "Enable Bond-Associated Hypoelastic Model": bool,
+}
+
+
+def _reading_field(key: str) -> Any | None:
+    """The annotation (with its constraints) of ``key`` in a loaded model that reads it."""
+    stack = list(ModelParams.__subclasses__())
+    while stack:
+        cls = stack.pop()
+        stack.extend(cls.__subclasses__())
+        if key in getattr(cls, "ignored_keys", ()):
+            continue
+        for name, f in cls.model_fields.items():
+            if (f.alias or name) == key:
+                return typing.Annotated[f.annotation, *f.metadata] if f.metadata else f.annotation
+    return None
+
+
+def ignored_value_problem(key: str, value: Any) -> str | None:
+    """Why the value of an ignored deck key is bad input (None when it is fine): ignored keys are
+    not read, but a non-finite number, a wrong type or a value outside the key's range where a
+    model reads it is a mistake in the deck all the same."""
+    from pydantic import TypeAdapter, ValidationError
+
+    annotation = IGNORED_KEY_TYPES.get(key) or _reading_field(key)
+    if _non_finite(value):
+        return f"{key!r} must be finite, got {value!r} (the key is ignored here, but its value is still checked)"
+    if annotation is None:
+        return None
+    if _bool_for_number(annotation, value):
+        return f"{key!r} must be a number, got the boolean {str(value).lower()} (the key is ignored here, but its value is still checked)"
+    if bool in _leaf_types(annotation) and not isinstance(value, bool):
+        return f"{key!r} must be true or false, got {value!r} (the key is ignored here, but its value is still checked)"
+    try:
+        TypeAdapter(annotation).validate_python(value)
+    except ValidationError as exc:
+        from ..deck.validation import explain  # noqa: PLC0415 (deck imports core, not back)
+
+        err = exc.errors(include_url=False)[0]
+        problem, _ = explain(err["type"], err.get("ctx") or {}, err.get("input"), str(err["msg"]))
+        return f"{key!r} {problem} (the key is ignored here, but its value is still checked)"
+    return None
 
 
 def describe_params(params_cls: type[BaseModel]) -> list[dict[str, Any]]:

@@ -21,7 +21,7 @@ from typing import Any
 from pydantic import Field, field_validator
 
 from ..core.errors import InputError, raise_collected
-from ..core.params import ModelParams
+from ..core.params import ModelParams, ignored_value_problem
 from ..plugins.manager import Registry, get_registry
 from .source import SECTION_NAMES
 from .validation import validate_params
@@ -254,6 +254,10 @@ def parse_deck(source, registry: Registry | None = None) -> Deck:
                 err(UNSUPPORTED_SECTIONS[key], (key,), "remove the section")
             continue
         if key in IGNORED_TOP_LEVEL:
+            problem = ignored_value_problem(key, tree[key])
+            if problem:
+                err(problem, (key,), "give a valid value or remove the key")
+                continue
             log.warning("%s: %r is ignored (%s)", file, key, IGNORED_TOP_LEVEL[key])
             continue
         import difflib

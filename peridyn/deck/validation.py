@@ -9,7 +9,7 @@ from typing import Any, TypeVar
 from pydantic import BaseModel, ValidationError
 
 from ..core.errors import InputError
-from ..core.params import DECK_CONTEXT
+from ..core.params import DECK_CONTEXT, ignored_value_problem
 
 log = logging.getLogger("peridyn.deck")
 
@@ -101,6 +101,10 @@ def convert_errors(exc: ValidationError, model: type[BaseModel], *, path: Sequen
             out.append(InputError(f"missing required key {loc[-1]!r}{desc}", file=file, path=full[:-1], line=line))
         elif kind in ("value_error", "assertion_error"):
             msg = str(err["msg"]).removeprefix("Value error, ").removeprefix("Assertion failed, ")
+            key = getattr((err.get("ctx") or {}).get("error"), "key", None)
+            if isinstance(key, (str, tuple)):  # a validator's problem with one key: name its path
+                full = full + ((key,) if isinstance(key, str) else tuple(key))
+                line = lines(full) if lines else line
             out.append(InputError(msg, file=file, path=full, line=line))
         else:
             msg = str(err["msg"])
@@ -131,6 +135,10 @@ def validate_params(
     clean = {}
     for key, value in data.items():
         if key in ignored:
+            problem = ignored_value_problem(key, value)
+            if problem:
+                errors.append(InputError(problem, file=file, path=(*path, key), line=lines((*path, key)) if lines else None, fix="give a valid value or remove the key"))
+                continue
             log.warning("%s: %s: %r is ignored (Peridigm ignores it too)", file, " > ".join(path), key)
             continue
         clean[key] = value

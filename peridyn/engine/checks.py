@@ -68,3 +68,78 @@ def connected(sim: Any) -> None:
             total,
             ids or "on another rank",
         )
+
+
+#: a horizon above this many times the model's size (its bounding box diagonal, or the point
+#: spacing for a single point) is refused: every point is already a neighbor of every other at
+#: one model size, so a larger horizon only shrinks the micromoduli (1/delta^4) towards zero
+HORIZON_PER_EXTENT = 1.0e3
+#: horizons whose 4th power (micromodulus 18 K / (pi delta^4), Peridigm's stable time step)
+#: under- or overflows a double are refused
+_TINY4 = float(np.finfo(np.float64).tiny) ** 0.25 * (1.0 + 1.0e-12)
+_HUGE4 = float(np.finfo(np.float64).max) ** 0.25 * (1.0 - 1.0e-12)
+
+
+def horizon_scale(sim: Any, disc: Any, horizon: np.ndarray) -> None:
+    """Refuse horizons (numbers or evaluated expressions, L) that are absurd for the model: far
+    above its size, or so large or small that delta^4 (the micromodulus, the stable time step)
+    or delta^3 (neighborhood volumes) cannot be represented."""
+    if not horizon.size:
+        return
+    with np.errstate(all="ignore"):
+        spacing = float(np.cbrt(np.median(disc.volume))) if disc.volume.size else 0.0
+        span = np.ptp(disc.x, axis=0) if disc.x.size else np.zeros(3)
+        extent = float(np.sqrt(np.sum(span * span)))
+    size = extent + spacing
+    for k, (name, _bid, entry) in enumerate(sim.block_specs):
+        mask = sim.block_index_mothership == k
+        if not np.any(mask):
+            continue
+        h = horizon[mask]
+        i = int(np.argmax(h))
+        big, small = float(h[i]), float(h.min())
+        where = entry.path + ("Horizon",)
+        text = "" if isinstance(entry.horizon, (int, float)) else f" (the expression gives it at ({', '.join(f'{c:g}' for c in disc.x[mask][i])}))"
+        if not (_TINY4 <= small and big <= _HUGE4):
+            bad = big if big > _HUGE4 else small
+            raise InputError(
+                f"horizon {bad:g} in block {name!r} cannot be used: its 4th power (micromodulus, stable time step) "
+                f"{'overflows' if bad > _HUGE4 else 'underflows'} a double{text}",
+                file=sim.deck.file, path=where, fix=f"give a horizon of about three point spacings (spacing about {spacing:.3g})",
+            )
+        if np.isfinite(size) and size > 0 and big > HORIZON_PER_EXTENT * size:
+            raise InputError(
+                f"horizon {big:g} in block {name!r} is {big / size:.3g} times the model's size ({size:.3g}){text}: every point "
+                "is a neighbor of every other long before that, and the micromoduli (1/horizon^4) would vanish",
+                file=sim.deck.file, path=where, fix=f"give a horizon of about three point spacings (spacing about {spacing:.3g})",
+            )
+
+
+#: horizon/spacing below this gives a handful of neighbors per point (the peridynamic sums then
+#: resolve little); a warning says so
+MIN_HORIZON_PER_SPACING = 2.0
+
+
+def horizon_spacing(sim: Any) -> None:
+    """One warning per block whose mean horizon is below two point spacings (spacing taken as
+    the cube root of the points' volumes, as ``peridyn check`` prints it), with its mean number
+    of neighbors."""
+    vol = sim.fields["Volume"]
+    counts = sim.bonds.counts()
+    for blk in sim.blocks:
+        lo, hi = blk.start, min(blk.stop, sim.num_owned)
+        n = max(hi - lo, 0)
+        with np.errstate(all="ignore"):
+            h = float(np.sum(sim.horizon_local[lo:hi])) if n else 0.0
+            s = float(np.sum(np.cbrt(vol[lo:hi]))) if n else 0.0
+            nb = float(np.sum(counts[lo:hi])) if n else 0.0
+        n, h, s, nb = (sim.comm.allreduce_sum(v) for v in (n, h, s, nb))
+        if not n or not s > 0:
+            continue
+        ratio = h / s
+        if ratio < MIN_HORIZON_PER_SPACING:
+            log.warning(
+                "block %s: the horizon is %.3g point spacings (below %g): about %.1f neighbors per point, "
+                "too few for the peridynamic sums to resolve the deformation; give a horizon of about three spacings",
+                blk.name, ratio, MIN_HORIZON_PER_SPACING, nb / n,
+            )

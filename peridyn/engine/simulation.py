@@ -96,6 +96,7 @@ class Simulation:
 
         self._assign_blocks(disc)
         horizon = self._point_horizons(disc)
+        checks.horizon_scale(self, disc, horizon)
         self.bonds_estimate = limits.estimate_bonds(disc.volume, horizon)
         limits.check_memory(float(disc.num_points), self.bonds_estimate, file=deck.file, path=("Blocks",), what="the model")
         t0 = _time.perf_counter()
@@ -128,6 +129,7 @@ class Simulation:
         plan_fusion(self)
         self.num_bonds_global = int(self.comm.allreduce_sum(int(self.bonds.num_bonds)))
         checks.connected(self)
+        checks.horizon_spacing(self)
         self._apply_initial_conditions()
         for blk in self.blocks:
             blk.material.initialize(blk.view)
@@ -204,7 +206,7 @@ class Simulation:
                 if np.any(bad):
                     at = xs[int(np.argmax(bad))]
                     raise InputError(
-                        f"the horizon expression gives {values[int(np.argmax(bad))]!r} at ({at[0]:g}, {at[1]:g}, {at[2]:g}) in block {name!r}",
+                        f"the horizon expression gives {float(values[int(np.argmax(bad))])!r} at ({at[0]:g}, {at[1]:g}, {at[2]:g}) in block {name!r}",
                         file=self.deck.file, path=entry.path + ("Horizon",), fix="give an expression that is positive and finite at every point",
                     )
                 horizon[mask] = values

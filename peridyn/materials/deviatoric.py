@@ -41,6 +41,7 @@ from pydantic import Field, model_validator
 from ..core.fields import FieldSpec, Relation, Temporal
 from ..core.influence import omega
 from ..core.interfaces import BlockView, Material
+from ..core.params import UsedWhen
 from .elastic import weighted_volume_kernel
 from .moduli import IsotropicElasticParams
 
@@ -351,9 +352,13 @@ class DeviatoricParams(IsotropicElasticParams):
     false or zero)."""
 
     finite_difference_probe_length: float | None = Field(
-        None, alias="Finite Difference Probe Length", gt=0, description="finite-difference tangent: probe (L); default 1e-6 x the smallest element radius"
+        None, alias="Finite Difference Probe Length", description="finite-difference tangent: probe (L); default 1e-6 x the smallest element radius"
     )
     rejected_keys: ClassVar[frozenset[str]] = frozenset()
+    #: the probe is read only by the finite-difference tangent (a model without the AD switch has only that one)
+    used_when = {"finite_difference_probe_length": UsedWhen(
+        lambda p: not getattr(p, "apply_ad_jacobian", False),
+        "the finite-difference tangent is used ('Apply Automatic Differentiation Jacobian' false)", gt=0)}
     model_name: ClassVar[str] = "this material"
 
     @model_validator(mode="before")

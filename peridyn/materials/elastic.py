@@ -26,6 +26,7 @@ from ..core.bondmath import stretch_exceeds
 from ..core.fields import FieldSpec, Relation, Temporal
 from ..core.influence import omega
 from ..core.interfaces import BlockView, Material
+from ..core.params import UsedWhen
 from .moduli import IsotropicElasticParams
 
 EMPTY = np.zeros(0)
@@ -41,9 +42,10 @@ class ElasticParams(IsotropicElasticParams):
     )
     compute_partial_stress: bool = Field(False, alias="Compute Partial Stress", description="accepted for compatibility")
     finite_difference_probe_length: float | None = Field(
-        None, alias="Finite Difference Probe Length", gt=0, description="implicit solvers, finite-difference tangent: probe (L); default 1e-6 x the smallest element radius"
+        None, alias="Finite Difference Probe Length", description="implicit solvers, finite-difference tangent: probe (L); default 1e-6 x the smallest element radius"
     )
     ignored_keys = frozenset({"Apply Shear Correction Factor", "Hourglass Coefficient"})
+    used_when = {"finite_difference_probe_length": UsedWhen(lambda p: not p.apply_ad_jacobian, "the finite-difference tangent is used ('Apply Automatic Differentiation Jacobian' false)", gt=0)}
 
 
 # ------------------------------------------------------------------------------------------------

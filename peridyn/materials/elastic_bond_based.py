@@ -22,7 +22,7 @@ from pydantic import Field, model_validator
 
 from ..core.fields import FieldSpec
 from ..core.interfaces import BlockView, Material
-from ..core.params import ModelParams
+from ..core.params import ModelParams, UsedWhen
 from .moduli import bulk_and_shear
 
 EMPTY = np.zeros(0)
@@ -35,11 +35,12 @@ class ElasticBondBasedParams(ModelParams):
     youngs_modulus: float | None = Field(None, alias="Young's Modulus", gt=0, description="Young's modulus E (Pa in SI); Poisson's ratio is fixed by the model")
     plane_strain: bool = Field(False, alias="Plane Strain", description="2D plane strain (needs Height)")
     plane_stress: bool = Field(False, alias="Plane Stress", description="2D plane stress (needs Height)")
-    height: float | None = Field(None, alias="Height", gt=0, description="thickness of a 2D model (L)")
+    height: float | None = Field(None, alias="Height", description="thickness of a 2D model (L)")
     finite_difference_probe_length: float | None = Field(
-        None, alias="Finite Difference Probe Length", gt=0, description="accepted for compatibility (this model has an exact tangent)"
+        None, alias="Finite Difference Probe Length", description="accepted for compatibility (this model has an exact tangent; any finite value)"
     )
     ignored_keys = frozenset({"Apply Shear Correction Factor"})
+    used_when = {"height": UsedWhen(lambda p: p.plane_strain or p.plane_stress, "the model is 2D ('Plane Strain' or 'Plane Stress')", gt=0)}
 
     @model_validator(mode="after")
     def _check(self):

@@ -26,6 +26,7 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from ..core.fields import FieldSpec, Relation, Temporal
+from ..core.params import UsedWhen
 from ..core.interfaces import BlockView
 from .deviatoric import (
     EMPTY,
@@ -42,8 +43,10 @@ from .deviatoric import (
 class PlasticParams(DeviatoricParams):
     """What both plastic models read."""
 
-    yield_stress: float = Field(alias="Yield Stress", gt=0, description="uniaxial yield stress sigma_y (M/(L T^2), Pa in SI)")
+    yield_stress: float = Field(alias="Yield Stress", description="uniaxial yield stress sigma_y (M/(L T^2), Pa in SI); > 0 unless 'Disable Plasticity'")
     disable_plasticity: bool = Field(False, alias="Disable Plasticity", description="true: purely elastic (the yield value becomes infinite)")
+    #: with plasticity disabled Peridigm sets sigma_y to DBL_MAX and never reads the deck's value
+    used_when = {"yield_stress": UsedWhen(lambda p: not p.disable_plasticity, "plasticity is enabled ('Disable Plasticity' false)", gt=0)}
 
 
 class ElasticPlasticParams(PlasticParams):
@@ -51,7 +54,8 @@ class ElasticPlasticParams(PlasticParams):
         True, alias="Apply Automatic Differentiation Jacobian", description="implicit solvers: exact tangent (true) or central finite differences (false)"
     )
     planar_problem: bool = Field(False, alias="Planar Problem", description="2-D yield value (needs 'Thickness'); m and theta keep their 3-D sums")
-    thickness: float | None = Field(None, alias="Thickness", gt=0, description="plate thickness T of a planar problem (L)")
+    thickness: float | None = Field(None, alias="Thickness", description="plate thickness T of a planar problem (L)")
+    used_when = {"thickness": UsedWhen(lambda p: p.planar_problem, "'Planar Problem' is true", gt=0)}
     ignored_keys = frozenset({"Apply Shear Correction Factor"})  # Peridigm does not read it here
     rejected_keys = frozenset({"Thermal Expansion Coefficient"})
     model_name = "'Elastic Plastic'"

@@ -30,6 +30,7 @@ from pydantic import Field
 
 from ..core.fields import FieldSpec, Relation
 from ..core.influence import omega
+from ..core.params import UsedWhen
 from ..core.interfaces import BlockView
 from .deviatoric import HARDENING
 from .elastic_plastic import ElasticPlastic, PlasticParams
@@ -39,7 +40,7 @@ GAMMA = 1.0e-6  # size of Peridigm's probing shears
 
 class ElasticPlasticHardeningParams(PlasticParams):
     hardening_modulus: float = Field(
-        alias="Hardening Modulus", gt=0, description="H: growth of the yield value per unit plastic multiplier (units of Y / lambda, M^3 L^-13 T^-6)"
+        alias="Hardening Modulus", description="H: growth of the yield value per unit plastic multiplier (units of Y / lambda, M^3 L^-13 T^-6)"
     )
     apply_shear_correction_factor: bool = Field(
         True, alias="Apply Shear Correction Factor", description="scale alpha and the yield value by Peridigm's per-point shear correction factor"
@@ -49,6 +50,7 @@ class ElasticPlasticHardeningParams(PlasticParams):
     )
     rejected_keys = frozenset({"Thermal Expansion Coefficient"})
     model_name = "'Elastic Plastic Hardening'"
+    used_when = {"hardening_modulus": UsedWhen(lambda p: not p.disable_plasticity, "plasticity is enabled ('Disable Plasticity' false)", gt=0)}
 
 
 @njit(cache=True, error_model="numpy")

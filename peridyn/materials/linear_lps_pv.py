@@ -40,6 +40,7 @@ from ..core.errors import InputError
 from ..core.fields import FieldSpec, Relation, Temporal
 from ..core.influence import omega
 from ..core.interfaces import BlockView, Material
+from ..core.params import UsedWhen
 from .elastic import Elastic, ElasticParams
 from .moduli import IsotropicElasticParams
 
@@ -56,7 +57,8 @@ class LinearLPSPVParams(IsotropicElasticParams):
     )
     use_improved_quadrature: bool = Field(False, alias="Use Improved Quadrature", description="not available (Peridigm: an external library)")
     use_analytic_weighted_volume: bool = Field(False, alias="Use Analytic Weighted Volume", description="use 'Analytic Weighted Volume' for every m_i")
-    analytic_weighted_volume: float | None = Field(None, alias="Analytic Weighted Volume", gt=0, description="m (L^5), required with 'Use Analytic Weighted Volume'")
+    analytic_weighted_volume: float | None = Field(None, alias="Analytic Weighted Volume", description="m (L^5), required with 'Use Analytic Weighted Volume'")
+    used_when = {"analytic_weighted_volume": UsedWhen(lambda p: p.use_analytic_weighted_volume, "'Use Analytic Weighted Volume' is true", gt=0)}
 
     @model_validator(mode="after")
     def _options(self):

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pydantic import Field, model_validator
 
-from ..core.params import ModelParams
+from ..core.params import STRESS_RATIO_LIMIT, ModelParams, ParamKeyError
 
 
 def bulk_and_shear(
@@ -62,6 +62,29 @@ class IsotropicElasticParams(ModelParams):
         if self.plane_strain and self.plane_stress:
             raise ValueError("'Plane Strain' and 'Plane Stress' cannot both be true")
         self.moduli()
+        return self
+
+    @model_validator(mode="after")
+    def _stress_scale(self):
+        """Yield stresses (any '... Yield Stress' key) more than 1e100 times below or above the
+        elastic moduli: their squares and ratios to the moduli (yield value, plastic multiplier)
+        under- or overflow, and a plastic run stops as unstable or with a NaN residual."""
+        given = [v for v in (self.bulk_modulus, self.shear_modulus, self.youngs_modulus) if v]
+        if not given:
+            return self
+        modulus = max(given)
+        for name, field in type(self).model_fields.items():
+            alias = field.alias or name
+            value = getattr(self, name, None)
+            if "Yield Stress" not in alias or isinstance(value, bool) or not isinstance(value, float) or value <= 0.0:
+                continue
+            if not self.is_used(name):
+                continue
+            ratio = value / modulus
+            if not 1.0 / STRESS_RATIO_LIMIT <= ratio <= STRESS_RATIO_LIMIT:
+                raise ParamKeyError(alias, f"{alias!r} = {value!r} is {ratio:.3g} times the elastic modulus ({modulus:g}): the yield "
+                                           "value and plastic multiplier built from it under- or overflow, and the run would stop as "
+                                           "unstable or with NaN; give a yield stress within 1e100 of the modulus (usually 1e-4 to 1e-1 of it)")
         return self
 
     def moduli(self) -> tuple[float, float]:

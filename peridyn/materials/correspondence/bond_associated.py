@@ -30,7 +30,7 @@ from pydantic import Field, model_validator
 from ...core.errors import InstabilityError
 from ...core.fields import FieldSpec, Length, Relation, Temporal
 from ...core.interfaces import BlockView, Material
-from ...core.params import ModelParams
+from ...core.params import ModelParams, ParamKeyError, UsedWhen
 from ..moduli import bulk_and_shear
 from . import bond_associated_kernels as kern
 from .params import CorrespondenceBaseParams
@@ -84,17 +84,27 @@ HARDENING_KEYS = {
 }
 
 
+#: ranges of the hardening constants, checked for the keys of the chosen 'Hardening Rule' only
+HARDENING_RANGES = {
+    "yield_stress": UsedWhen(lambda p: True, "'Hardening Rule' is 'Power-law'", gt=0),
+    "hardening_characteristic_strain": UsedWhen(lambda p: True, "'Hardening Rule' is 'Power-law'", gt=0),
+    "initial_yield_stress": UsedWhen(lambda p: True, "'Hardening Rule' is 'Saturation type exponential'", gt=0),
+    "saturated_yield_stress": UsedWhen(lambda p: True, "'Hardening Rule' is 'Saturation type exponential'", gt=0),
+    "exponential_constant": UsedWhen(lambda p: True, "'Hardening Rule' is 'Saturation type exponential'", ge=0),
+}
+
+
 class HardeningParameters(ModelParams):
     """The ``Hardening Parameters`` sublist: the keys of the chosen ``Hardening Rule``."""
 
-    yield_stress: float | None = Field(None, alias="Yield Stress", gt=0, description="Power-law: initial yield stress sigma_y (Pa in SI)")
+    yield_stress: float | None = Field(None, alias="Yield Stress", description="Power-law: initial yield stress sigma_y (Pa in SI)")
     hardening_characteristic_strain: float | None = Field(
-        None, alias="Hardening Characteristic Strain", gt=0, description="Power-law: eps_c of sigma_y (1 + eqps/eps_c)^n"
+        None, alias="Hardening Characteristic Strain", description="Power-law: eps_c of sigma_y (1 + eqps/eps_c)^n"
     )
     hardening_exponent: float | None = Field(None, alias="Hardening Exponent", description="Power-law: exponent n")
-    initial_yield_stress: float | None = Field(None, alias="Initial Yield Stress", gt=0, description="Saturation: sigma_0 (Pa in SI)")
-    saturated_yield_stress: float | None = Field(None, alias="Saturated Yield Stress", gt=0, description="Saturation: sigma_inf (Pa in SI)")
-    exponential_constant: float | None = Field(None, alias="Exponential Constant", ge=0, description="Saturation: beta (-)")
+    initial_yield_stress: float | None = Field(None, alias="Initial Yield Stress", description="Saturation: sigma_0 (Pa in SI)")
+    saturated_yield_stress: float | None = Field(None, alias="Saturated Yield Stress", description="Saturation: sigma_inf (Pa in SI)")
+    exponential_constant: float | None = Field(None, alias="Exponential Constant", description="Saturation: beta (-)")
     linear_constant: float | None = Field(None, alias="Linear Constant", description="Saturation: linear hardening modulus h (Pa in SI)")
 
 
@@ -112,6 +122,11 @@ class IsotropicHardeningBondAssociatedParams(BondAssociatedParams):
         if missing:
             raise ValueError(f"'Hardening Rule' {self.hardening_rule!r} needs {', '.join(repr(m) for m in missing)} "
                              "in 'Hardening Parameters'")
+        for name, alias in HARDENING_KEYS[self.hardening_rule]:  # only the chosen rule's keys are read
+            rule = HARDENING_RANGES.get(name)
+            problem = rule.problem(getattr(hp, name)) if rule else None
+            if problem:
+                raise ParamKeyError(("Hardening Parameters", alias), f"{alias!r} {problem}")
         return self
 
     def curve(self) -> tuple[int, float, float, float, float]:

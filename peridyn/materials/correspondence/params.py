@@ -5,6 +5,7 @@ from typing import Any
 
 from pydantic import Field, model_validator
 
+from ...core.params import UsedWhen
 from ..moduli import IsotropicElasticParams
 
 #: keys whose mere presence Peridigm rejects for every correspondence material
@@ -59,10 +60,11 @@ class FlawParams(YieldParams):
     flaw_location_x: float | None = Field(None, alias="Flaw Location X", description="flaw centre x (L)")
     flaw_location_y: float | None = Field(None, alias="Flaw Location Y", description="flaw centre y (L)")
     flaw_location_z: float | None = Field(None, alias="Flaw Location Z", description="flaw centre z (L)")
-    flaw_size: float | None = Field(None, alias="Flaw Size", gt=0, description="flaw radius s (L)")
+    flaw_size: float | None = Field(None, alias="Flaw Size", description="flaw radius s (L); > 0 when 'Enable Flaw' is true")
     flaw_magnitude: float | None = Field(
         None, alias="Flaw Magnitude", description="relative depth m of the yield stress dip (-); 0 to 1 when 'Enable Flaw' is true"
     )
+    used_when = {"flaw_size": UsedWhen(lambda p: bool(p.enable_flaw), "'Enable Flaw' is true", gt=0)}
 
     @model_validator(mode="after")
     def _flaw_complete(self):

@@ -102,10 +102,17 @@ def test_check_states_steps_and_time(tmp_path, capsys):
 def test_a_tiny_horizon_neither_hangs_nor_crashes(tmp_path, capsys):
     deck = write(tmp_path, horizon="5.0e-324")
     assert main(["run", str(deck), "--output-dir", str(tmp_path)]) == ExitCode.INPUT_ERROR
-    assert "no point has a neighbor" in capsys.readouterr().err
+    assert "its 4th power (micromodulus, stable time step) underflows" in capsys.readouterr().err
 
 
-def test_a_huge_horizon_makes_every_point_a_neighbor(tmp_path, capsys):
+def test_a_huge_horizon_is_refused(tmp_path, capsys):
+    """Issue #19: a horizon whose 4th power overflows (the micromodulus) is bad input."""
     deck = write(tmp_path, horizon="1.0e308")
+    assert main(["check", str(deck)]) == ExitCode.INPUT_ERROR
+    assert "Horizon: horizon 1e+308" in capsys.readouterr().err
+
+
+def test_a_horizon_of_many_model_sizes_makes_every_point_a_neighbor(tmp_path, capsys):
+    deck = write(tmp_path, horizon="100.0")
     assert main(["check", str(deck)]) == ExitCode.OK
     assert "64 points, 4032 bonds" in capsys.readouterr().out
