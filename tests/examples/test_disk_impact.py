@@ -1,10 +1,11 @@
 """examples/disk_impact.yaml at a small size: the ball is stopped by contact, not by bonds.
 
 The deck is run with a point spacing of 0.8 mm (3 layers through the disk, horizon 2.4 mm, about
-21,000 points) to 14 us, a few seconds. The two bodies are not bonded (``Omit Bonds Between
+21,000 points) to 14 us. The two bodies are not bonded (``Omit Bonds Between
 Blocks: All``), so everything below happens through contact only: without it the ball would fly
 through the disk at 100 m/s.
 """
+import re
 from pathlib import Path
 
 import numpy as np
@@ -110,3 +111,53 @@ def test_the_disk_breaks_under_the_ball_and_nowhere_far_from_it(run):
     assert damage[disk][radius < 0.005].max() > 0.9  # bonds broken under the impact point
     assert np.all(damage[disk][radius > 0.030] == 0.0)  # the damage has not reached the rim
     assert np.all(r["element"]["Damage"][:, ball] == 0.0)  # the ball has no damage model
+
+
+def test_the_counts_in_the_header_are_those_of_the_full_size_deck(capsys, monkeypatch):
+    """The header's points, layers, bonds, steps and time step, and the Safety Factor comment,
+    against `peridyn check` on the example as it is (set-up only, no run)."""
+    from peridyn.deck.model import load_deck
+
+    monkeypatch.chdir(DECK.parent)
+    capsys.readouterr()
+    assert main(["check", str(DECK)]) == ExitCode.OK
+    out = capsys.readouterr().out
+    assert "Shapes, 90224 points, 7246300 bonds" in out
+    assert "block block_1 (id 1): 86000 points" in out and "block block_2 (id 2): 4224 points" in out
+    assert ", 1850 steps," in out
+    bond_dt = float(re.search(r"stable time step \(Verlet\): (\S+)", out).group(1))
+    contact_dt = float(re.search(r"with the contact springs (\S+)", out).group(1))
+    safety = float(load_deck_file(DECK).tree["Solver"]["Verlet"]["Safety Factor"])
+    dt = safety * bond_dt
+    frequency = int(load_deck_file(DECK).tree["Output"]["Output Frequency"])
+    text = " ".join(line.lstrip("# ").rstrip() for line in DECK.read_text().splitlines())
+    assert "90,224 points (86,000 in the disk: 5 layers of 0.5 mm; 4,224 in the ball)" in text
+    assert "7.2 million bonds, 1,850 steps of 4.32e-8 s" in text
+    assert f"{dt:.3g}" == "4.32e-08" and f"{contact_dt / bond_dt:.3g}" == "0.554"
+    assert "to 0.554 times the bond estimate, so 0.55: dt = 4.32e-8 s" in text
+    assert f"{frequency * dt:.2g}" == "2e-05" and f"{1850 // frequency * frequency * dt:.3g}" == "7.99e-05"
+    # the Contact section's arithmetic: 1.7 mm in 50 steps of 2.2 us is about 800 m/s, eight times
+    # the ball's speed, 0.22 mm of the ball's travel between searches; 2.5 mm is 8 element radii
+    tree = load_deck_file(DECK).tree
+    search, every = float(tree["Contact"]["Search Radius"]), int(tree["Contact"]["Search Frequency"])
+    rc = float(tree["Contact"]["Models"]["My Contact Model"]["Contact Radius"])
+    assert f"{(search - rc) * 1e3:.2g}" == "1.7" and f"{every * dt * 1e6:.2g}" == "2.2"
+    closing = (search - rc) / (every * dt)
+    assert abs(closing - 800.0) < 10.0 and round(closing / SPEED) == 8
+    assert f"{SPEED * every * dt * 1e3:.2g}" == "0.22"
+    element_radius = (3.0 * 0.0005**3 / (4.0 * np.pi)) ** (1.0 / 3.0)
+    assert round(search / element_radius) == 8
+    k_contact = float(tree["Contact"]["Models"]["My Contact Model"]["Spring Constant"])
+    assert round(k_contact / float(tree["Materials"]["Disk Material"]["Bulk Modulus"])) == 67
+    for words in ("at about 800 m/s to be missed: eight times the ball's speed", "100 m/s x 2.2 us = 0.22 mm",
+                  "2.5 mm is 8 element radii", "(1e12 Pa, 67 times the disk's bulk modulus)"):
+        assert words in text, words
+    # the disk's 5 layers of 0.5 mm
+    deck = load_deck(DECK)
+    disc = deck.discretization.cls(deck.discretization.params, deck_dir=deck.directory).read()
+    z = np.unique(np.round(disc.x[disc.block_id == 1, 2], 9))
+    np.testing.assert_allclose(z, 0.00025 + 0.0005 * np.arange(5), atol=1e-9)
+    # the Discretization comment: the nearest disk and ball points are 1 mm apart, less than the horizon
+    gap = cKDTree(disc.x[disc.block_id == 1]).query(disc.x[disc.block_id == 2])[0].min()
+    assert abs(gap - 0.001) < 1e-9 and gap < float(tree["Blocks"]["Disk Block"]["Horizon"])
+    assert "(their nearest points are 1 mm apart, less than the horizon)" in text
