@@ -6,6 +6,19 @@ type, a non-finite or extreme number, a broken expression, a missing, folder-val
 neighbouring file, a duplicated output file name, a Final Time not after the Initial Time, or a
 damaged deck text; for ``run``, also valid but extreme numbers (``scale_number``). :mod:`cases`
 shrinks decks for ``run`` and writes a case; :mod:`runner` executes and classifies it.
+
+Issue 19 added what an independent campaign found this one missing: whole sections removed
+(``delete_section``: the Solver, Output, Contact sections, Adaptive Load-Stepping, Switch to
+Verlet, Linear Solver, Shapes, ...), non-finite values on any key including ignored ones
+(``nonfinite_anywhere``), very long names (``long_string``: 255-5000 characters on file names),
+keys of every model family scaled by the factors that found bugs (x10, x0.3, x1660, unit slips
+1e+-9, 1e-300, 1e308) or set to tiny/huge positives (``family_number``, family first so a deck's
+few contact or plasticity keys are not drowned by its boundary conditions), time steps at any
+depth, added where absent (``step_size``: QuasiStatic > Adaptive Load-Stepping > Switch to Verlet >
+Fixed dt), other material models with valid parameters (``model_swap``: viscoelastic, Pals,
+plasticity, correspondence, partial volumes from plain Elastic decks) and linear solver and
+predictor choices (``solver_choice``: AMG, Direct, Belos GMRES, ...). :func:`family_of_case`
+names the family a case reached (the campaign's coverage table).
 """
 from __future__ import annotations
 
@@ -146,6 +159,8 @@ class Mutation:
     text_op: tuple | None = None  #: (op, position fraction, arg) on the written deck bytes
     expect_refusal: str | None = None  #: why exit 0 would be wrong (besides obviously_invalid)
     fmt: str = "yaml"  #: write the deck as "yaml" (with dump_yaml) or "xml"
+    #: how much the mutation scaled the deck's loads (widens the blow-up bounds on |u| and |v|)
+    load_factor: float = 1.0
 
     def __repr__(self) -> str:
         return f"<Mutation {self.describe()}>"
@@ -162,7 +177,8 @@ class Mutation:
 
     def to_json(self) -> dict:
         return {"kind": self.kind, "path": list(self.path), "value": _jsonable(self.value), "detail": self.detail,
-                "expect_refusal": self.expect_refusal, "fmt": self.fmt, "description": self.describe()}
+                "expect_refusal": self.expect_refusal, "fmt": self.fmt, "load_factor": _jsonable(self.load_factor),
+                "description": self.describe()}
 
 
 def _jsonable(v: Any) -> Any:
@@ -253,7 +269,7 @@ SLOWER_UP = {"Final Time", "Number of Load Steps", "Number Points X", "Number Po
              "Number Points Radius", "Horizon", "Maximum Solver Iterations", "Max Solver Iterations",
              "X Length", "Y Length", "Z Length", "Outer Radius", "Cylinder Length"}
 SLOWER_DOWN = {"Fixed dt", "Safety Factor", "Initial Time"}
-SCALES = [1e-300, 1e-12, 1e-3, 10.0, 1e3, 1e12, 1e300, -1.0]
+SCALES = [1e-300, 1e-12, 1e-9, 1e-3, 0.3, 10.0, 1660.0, 1e3, 1e9, 1e12, 1e300, 1e308, -1.0]
 
 
 def scale_number(numeric: list[tuple[Path_, Any]], fast: bool = False) -> st.SearchStrategy[Mutation]:
@@ -266,7 +282,8 @@ def scale_number(numeric: list[tuple[Path_, Any]], fast: bool = False) -> st.Sea
         new = float(v) * f
         if isinstance(v, int) and not isinstance(v, bool) and abs(new) < 2**31 and new == int(new):
             new = int(new)
-        return Mutation("scale_number", p, new, f"x{f:g}", tree_ops=(("set", p, new),))
+        load = abs(f) if p[0] == "Boundary Conditions" and math.isfinite(new) else 1.0
+        return Mutation("scale_number", p, new, f"x{f:g}", tree_ops=(("set", p, new),), load_factor=max(load, 1.0))
 
     return st.tuples(st.sampled_from(numeric), st.sampled_from(SCALES)).map(make)
 
@@ -274,17 +291,18 @@ def scale_number(numeric: list[tuple[Path_, Any]], fast: bool = False) -> st.Sea
 def unstable_step(solvers: list[str], tree: dict) -> st.SearchStrategy[Mutation]:
     """A Verlet/Implicit time step k times too large, the span k times longer (same step count):
     the run must stop with exit 3 (or finish), never write non-finite values."""
-    targets = [(name, method, key) for name in solvers for method, body in tree[name].items()
+    targets = [p + (key,) for name in solvers for p, body in iter_keys(tree[name], (name,))
                if isinstance(body, dict) for key in ("Fixed dt", "Safety Factor") if _number(body.get(key))]
 
     def make(args: tuple) -> Mutation:
-        (name, method, key), k = args
+        p, k = args
+        name = p[0]
         sec = tree[name]
         t0 = _number(sec.get("Initial Time", 0.0)) or 0.0
         t1 = _number(sec.get("Final Time", t0 + 1.0))
         t1 = t0 + 1.0 if t1 is None else t1
-        ops = (("set", (name, method, key), _number(sec[method][key]) * k), ("set", (name, "Final Time"), t0 + (t1 - t0) * k))
-        return Mutation("unstable_step", (name, method, key), k, f"{key} and the span x{k:g}", tree_ops=ops)
+        ops = (("set", p, _number(_parent(tree, p)[p[-1]]) * k), ("set", (name, "Final Time"), t0 + (t1 - t0) * k))
+        return Mutation("unstable_step", p, k, f"{p[-1]} and the span x{k:g}", tree_ops=ops)
 
     return st.tuples(st.sampled_from(targets), st.sampled_from([2.0, 5.0, 20.0, 1e3, 1e6])).map(make)
 
@@ -295,7 +313,7 @@ def extreme_load(values: list[tuple[Path_, Any]]) -> st.SearchStrategy[Mutation]
     def make(args: tuple) -> Mutation:
         (p, v), e = args
         new = f"1e{e}*({v})"
-        return Mutation("extreme_load", p, new, tree_ops=(("set", p, new),))
+        return Mutation("extreme_load", p, new, tree_ops=(("set", p, new),), load_factor=10.0**e)
 
     return st.tuples(st.sampled_from(values), st.sampled_from([3, 6, 12, 100, 300])).map(make)
 
@@ -460,6 +478,314 @@ def deck_text(fmt: str) -> st.SearchStrategy[Mutation]:
     return st.tuples(ops, st.floats(0.0, 1.0), st.sampled_from(_TEXT_INSERTS)).map(make)
 
 
+# -- issue 19: what an independent campaign found and this one did not draw -----------------------
+#: sub-sections deleted whole by ``delete_section`` (besides every top-level section)
+SUBSECTIONS = {"Adaptive Load-Stepping", "Switch to Verlet", "Linear Solver", "Direction", "Line Search", "Newton",
+               "Verlet", "QuasiStatic", "Implicit", "NOXQuasiStatic", "ImplicitDiffusion", "Shapes", "Bond Filters",
+               "Models", "Interactions", "Output Variables", "Damage Models", "Printing", "Solver Options"}
+
+
+def delete_section(tree: dict) -> st.SearchStrategy[Mutation] | None:
+    """A whole section removed: a top-level one (Solver, Output, Contact, ...) or a named sub-section
+    (a solver's method, Adaptive Load-Stepping, Switch to Verlet, Linear Solver, Shapes, ...)."""
+    required = {"Discretization", "Materials", "Blocks"}
+    paths = [(k,) for k, v in tree.items() if isinstance(v, dict)]
+    paths += [p for p, v in iter_keys(tree) if len(p) > 1 and isinstance(v, dict) and p[-1] in SUBSECTIONS]
+    if not paths:
+        return None
+
+    def make(p: Path_) -> Mutation:
+        why = f"deleted the required section {p[0]!r}" if len(p) == 1 and p[0] in required else None
+        if len(p) == 2 and "Solver" in p[0] and p[1] in ("Verlet", "QuasiStatic", "Implicit", "NOXQuasiStatic", "ImplicitDiffusion"):
+            why = f"{p[0]!r} lost its only method {p[1]!r}" if sum(isinstance(v, dict) for v in _parent(tree, p).values()) == 1 else None
+        return Mutation("delete_section", p, None, "whole section", tree_ops=(("delete", p, None),), expect_refusal=why)
+
+    return st.sampled_from(paths).map(make)
+
+
+#: non-finite values spelled the ways a deck can spell them (YAML .nan/.inf, text nan, XML doubles)
+NONFINITE: list[Any] = [math.nan, math.inf, -math.inf, Raw(".nan", ("double", "nan"), ".nan"),
+                        Raw("-.inf", ("double", "-inf"), "-.inf"), Raw(".inf", ("double", "inf"), ".inf"),
+                        Raw("-.nan", ("double", "-nan"), "-.nan"), "nan", "-inf"]
+
+
+def nonfinite_anywhere(leaves: list[tuple[Path_, Any]]) -> st.SearchStrategy[Mutation]:
+    """nan / inf / -.inf on any leaf, whatever its type: booleans, names, keys peridyn ignores
+    (Verbose, Output Precision, ...) - an ignored key must stay ignored, never crash or leak."""
+
+    def make(args: tuple) -> Mutation:
+        (p, old), v = args
+        return Mutation("nonfinite_anywhere", p, v, f"was {type(old).__name__}", tree_ops=(("set", p, v),))
+
+    return st.tuples(st.sampled_from(leaves), st.sampled_from(NONFINITE)).map(make)
+
+
+#: keys whose value names a file (read or written)
+FILE_KEYS = {"Input Mesh File", "Output Filename", "File Name", "Node Set", "Restart File", "Data File"}
+
+
+def long_string(leaves: list[tuple[Path_, Any]]) -> st.SearchStrategy[Mutation]:
+    """Very long names: 255, 256, 300 and 5000 characters, long folder chains; on file names (an
+    output name too long for the file system must be an input error, not a crash) and on any string."""
+    files = [(p, v) for p, v in leaves if isinstance(v, str) and (p[-1] in FILE_KEYS or "Node Set" in p[-1] or "File" in p[-1])]
+    names = [(p, v) for p, v in leaves if isinstance(v, str)]
+
+    def make(args: tuple) -> Mutation:
+        (p, old), how = args
+        stem = {"n255": "a" * 255, "n256": "b" * 256, "n300": "c" * 300, "n5000": "d" * 5000,
+                "dirs": "/".join(["x" * 60] * 80), "dots": "../" * 200 + "f", "space300": "e " * 150}[how]
+        suffix = Path(old).suffix if p[-1] != "Output Filename" else ""
+        new = stem + suffix
+        why = None
+        if p[-1] in ("Input Mesh File",) or "Node Set" in p[-1]:
+            why = "names a file that cannot exist"
+        return Mutation("long_string", p, new, f"{how} ({len(new)} chars)", tree_ops=(("set", p, new),), expect_refusal=why)
+
+    pool = files * 3 + names
+    return st.tuples(st.sampled_from(pool), st.sampled_from(["n255", "n256", "n300", "n300", "n5000", "dirs", "dots", "space300"])).map(make)
+
+
+#: scale factors that found bugs: unit slips (GPa <-> Pa, mm <-> m, g <-> kg), x10, x0.3, x1660, 1e+-300
+FACTORS = [10.0, 0.3, 2.0, 0.5, 1660.0, 1e-9, 1e9, 1e-6, 1e6, 1e-3, 1e3, 1e-300, 1e300, 1e308, -1.0, 0.0]
+#: tiny and huge positives
+POSITIVES = [5e-324, 2.2250738585072014e-308, 1e-300, 1e-30, 1e-12, 1e12, 1e30, 1e300, 1.7976931348623157e308]
+
+
+def _family_of(tree: dict, path: Path_) -> str | None:
+    """The model family a key belongs to (see FAMILIES), or None."""
+    joined = " > ".join(path)
+    model = ""
+    if path[0] in ("Materials", "Damage Models") and len(path) > 2 and isinstance(tree.get(path[0], {}).get(path[1]), dict):
+        sec = tree[path[0]][path[1]]
+        model = str(sec.get("Material Model", sec.get("Damage Model", sec.get("Type", ""))))
+    if path[0] == "Contact":
+        return "contact"
+    if "Adaptive Load-Stepping" in path or "Switch to Verlet" in path:
+        return "adaptive_load_stepping"
+    if path[-1] == "Initialize Predictor From Previous Solver" or "Predictor" in path[-1]:
+        return "predictors"
+    if any(k in joined for k in ("Linear Solver", "Preconditioner", "Belos", "Aztec", "AMG", "Direction", "Line Search")):
+        return "linear_solver"
+    if "Shapes" in path:
+        return "shapes"
+    if "Multiphysics" in model or path[0] == "Multiphysics" or "Fluid" in path[-1]:
+        return "multiphysics"
+    if "Diffusion" in model or "ImplicitDiffusion" in path or "Temperature" in joined:
+        return "diffusion"
+    if "Partial Volume" in model or "Element-Horizon" in path[-1]:
+        return "partial_volumes"
+    if "Interface" in joined or "Interface" in model or path[-1] == "Construct Interfaces":
+        return "interfaces"
+    if model == "Pals" or "Influence Function" in path[-1]:
+        return "pals"
+    if "Viscoelastic" in model:
+        return "viscoelastic"
+    if "Correspondence" in model:
+        return "correspondence"
+    if "Plastic" in model or "Hardening" in model or "Yield" in path[-1]:
+        return "plasticity"
+    if path[0] == "Damage Models" or "Bond Filters" in path:
+        return "damage"
+    if "Solver" in path[0] and path[-1] in ("Fixed dt", "Safety Factor", "Number of Load Steps", "Time Steps"):
+        return "time_stepping"
+    return None
+
+
+FAMILIES = ("contact", "correspondence", "plasticity", "viscoelastic", "pals", "partial_volumes", "diffusion",
+            "multiphysics", "interfaces", "predictors", "adaptive_load_stepping", "shapes", "linear_solver", "damage",
+            "time_stepping")
+
+
+def family_of_case(tree: dict, mutation: Mutation) -> str | None:
+    """The family a mutation reached (by the key it changed, or the model it swapped in)."""
+    if mutation.kind in ("model_swap", "solver_choice", "step_size") and mutation.detail.split(":")[0] in FAMILIES:
+        return mutation.detail.split(":")[0]
+    return _family_of(tree, mutation.path) if mutation.path else None
+
+
+def family_number(tree: dict, only: str | None = None) -> st.SearchStrategy[Mutation] | None:
+    """A numeric (or boolean) key of one model family present in the deck (families first, then a
+    key: a deck's few contact or plasticity keys are not drowned by its many boundary conditions),
+    scaled by a factor that found bugs, or set to a tiny/huge positive or a non-finite value."""
+    by_family: dict[str, list[tuple[Path_, Any]]] = {}
+    for p, v in iter_leaves(tree):
+        fam = _family_of(tree, p)
+        if fam and (only is None or fam == only) and (_number(v) is not None or isinstance(v, bool)):
+            by_family.setdefault(fam, []).append((p, v))
+    if not by_family:
+        return None
+
+    def make(args: tuple) -> Mutation:
+        fam, i, how, j = args
+        p, v = by_family[fam][i % len(by_family[fam])]
+        x = _number(v)
+        if isinstance(v, bool) or x is None:
+            new: Any = (not v) if how != "nonfinite" else NONFINITE[j % len(NONFINITE)]
+            return Mutation("family_number", p, new, f"{fam}: flipped", tree_ops=(("set", p, new),))
+        if how == "scale":
+            f = FACTORS[j % len(FACTORS)]
+            new = x * f
+            if isinstance(v, int) and abs(new) < 2**31 and new == int(new):
+                new = int(new)
+            detail = f"{fam}: x{f:g}"
+        elif how == "positive":
+            new = POSITIVES[j % len(POSITIVES)]
+            detail = f"{fam}: {new:g}"
+        else:
+            new = NONFINITE[j % len(NONFINITE)]
+            detail = f"{fam}: non-finite"
+        return Mutation("family_number", p, new, detail, tree_ops=(("set", p, new),))
+
+    return st.tuples(st.sampled_from(sorted(by_family)), st.integers(0, 200), st.sampled_from(["scale", "scale", "positive", "nonfinite"]),
+                     st.integers(0, 100)).map(make)
+
+
+def step_size(tree: dict, only: str | None = None) -> st.SearchStrategy[Mutation] | None:
+    """A time step or load-step count at any depth, added where absent: Fixed dt / Safety Factor in
+    Verlet, Implicit and fallback sublists (QuasiStatic > Adaptive Load-Stepping > Switch to
+    Verlet), Number of Load Steps, Time Steps. Tiny steps ask for absurd work: the run must refuse
+    (exit 2 with an estimate) or stop, never hang."""
+    targets: list[tuple[Path_, str]] = []
+    for p, v in iter_keys(tree):
+        if not ("Solver" in p[0] and isinstance(v, dict)):
+            continue
+        if p[-1] in ("Verlet", "Switch to Verlet", "Implicit"):
+            targets += [(p, "Fixed dt"), (p, "Safety Factor")]
+        if p[-1] in ("QuasiStatic", "NOXQuasiStatic", "ImplicitDiffusion"):
+            targets += [(p, "Number of Load Steps")]
+        if p[-1] == "Adaptive Load-Stepping":
+            targets += [(p + ("Switch to Verlet",), "Fixed dt")] if "Switch to Verlet" not in v else []
+    if only == "adaptive_load_stepping":
+        targets = [t for t in targets if "Adaptive Load-Stepping" in t[0]]
+    if not targets:
+        return None
+    values = [1e-300, 5e-324, 1e-20, 1e-12, 1e-9, 1e3, 1e300, 0.0, -1.0, math.nan, math.inf, 2**31 - 1, 10**7]
+
+    def make(args: tuple) -> Mutation:
+        (p, key), val = args
+        if key == "Number of Load Steps":
+            val = int(val) if isinstance(val, float) and math.isfinite(val) and abs(val) < 2**31 and val == int(val) else val
+        ops: tuple = ()
+        node = tree
+        for k in p[:-1]:
+            node = node[k]
+        if p[-1] not in node:  # a fallback sublist the deck lacks: add it
+            ops += (("set", p, {}),)
+        ops += (("set", p + (key,), val),)
+        fam = "adaptive_load_stepping" if "Adaptive Load-Stepping" in p else "time_stepping"
+        return Mutation("step_size", p + (key,), val, f"{fam}: {key}", tree_ops=ops)
+
+    return st.tuples(st.sampled_from(targets), st.sampled_from(values)).map(make)
+
+
+#: models swapped in (a valid parameter set derived from the deck's moduli): families no deck has
+_SWAPS = {
+    "Viscoelastic": ("viscoelastic", {"lambda_i": 0.5, "tau b": "span"}),
+    "Pals": ("pals", {"Dilatation Influence Function": "One", "Deviatoric Influence Function": "Parabolic Decay"}),
+    "Elastic Plastic": ("plasticity", {"Yield Stress": "yield"}),
+    "Elastic Plastic Hardening": ("plasticity", {"Yield Stress": "yield", "Hardening Modulus": "hardening"}),
+    "Elastic Correspondence": ("correspondence", {"Hourglass Coefficient": 0.02}),
+    "Elastic Plastic Correspondence": ("correspondence", {"Hourglass Coefficient": 0.02, "Yield Stress": "yield"}),
+    "Elastic Hypoelastic Correspondence": ("correspondence", {"Hourglass Coefficient": 0.02}),
+    "Elastic Bond Associated Correspondence": ("correspondence", {}),
+    "Elastic Partial Volume": ("partial_volumes", {}),
+    "Linear LPS Partial Volume": ("partial_volumes", {}),
+    "Elastic Bond Based": ("bond_based", {}),
+}
+
+
+def model_swap(tree: dict, only: str | None = None) -> st.SearchStrategy[Mutation] | None:
+    """A material given another model (its moduli kept, the new model's parameters added with valid
+    values), and maybe one of the new parameters scaled: mutations reach viscoelastic, Pals,
+    plasticity, correspondence and partial-volume code from decks that use plain Elastic."""
+    mats = [(k, v) for k, v in (tree.get("Materials") or {}).items() if isinstance(v, dict) and "Density" in v
+            and any(m in v for m in ("Bulk Modulus", "Young's Modulus"))]
+    if not mats:
+        return None
+    t0 = _number(next((v.get("Initial Time") for k, v in tree.items() if "Solver" in k and isinstance(v, dict)), 0.0)) or 0.0
+    t1 = _number(next((v.get("Final Time") for k, v in tree.items() if "Solver" in k and isinstance(v, dict)), 1.0)) or 1.0
+    span = abs(t1 - t0) or 1.0
+
+    def make(args: tuple) -> Mutation:
+        (name, mat), model, scale_key, f = args
+        fam, params = _SWAPS[model]
+        modulus = _number(mat.get("Bulk Modulus")) or _number(mat.get("Young's Modulus")) or 1.0
+        ops: list = [("set", ("Materials", name, "Material Model"), model)]
+        added = {}
+        for key, val in params.items():
+            val = {"span": span / 5, "yield": abs(modulus) * 1e-3, "hardening": abs(modulus) * 1e-2}.get(val, val) if isinstance(val, str) else val
+            added[key] = val
+            ops.append(("set", ("Materials", name, key), val))
+        detail = f"{fam}: {mat.get('Material Model')!r} -> {model!r}"
+        numeric = [k for k, v in added.items() if _number(v) is not None]
+        if numeric and f != 1.0:
+            key = numeric[scale_key % len(numeric)]
+            ops.append(("set", ("Materials", name, key), added[key] * f))
+            detail += f", {key} x{f:g}"
+        return Mutation("model_swap", ("Materials", name, "Material Model"), model, detail, tree_ops=tuple(ops))
+
+    models = sorted(m for m, (fam, _) in _SWAPS.items() if only is None or fam == only)
+    if not models:
+        return None
+    return st.tuples(st.sampled_from(mats), st.sampled_from(models), st.integers(0, 5),
+                     st.sampled_from([1.0, 1.0, 1.0, *FACTORS])).map(make)
+
+
+def solver_choice(tree: dict, only: str | None = None) -> st.SearchStrategy[Mutation] | None:
+    """Linear solver / preconditioner choices in implicit solver sublists (AMG, Direct, Auto,
+    Adaptive, Belos GMRES, unknown names), and the predictor switch."""
+    subs = [p for p, v in iter_keys(tree) if "Solver" in p[0] and isinstance(v, dict)
+            and p[-1] in ("QuasiStatic", "NOXQuasiStatic", "Implicit", "ImplicitDiffusion")]
+    tops = [(k,) for k, v in tree.items() if "Solver" in k and isinstance(v, dict)]
+    if not subs and not tops:
+        return None
+    choices = [("Linear Solver", "AMG"), ("Linear Solver", "Direct"), ("Linear Solver", "Auto"), ("Linear Solver", "Adaptive"),
+               ("Linear Solver", "Belos"), ("Linear Solver", "amg"), ("Linear Solver", "Multigrid"),
+               ("Belos Linear Solver", "BlockGMRES"), ("Belos Linear Solver", "BlockCG"), ("Belos Linear Solver", "Pseudo"),
+               ("Linear Solver Tolerance", 1e-300), ("Linear Solver Tolerance", 0.5), ("Linear Solver Tolerance", math.nan),
+               ("Belos Relative Tolerance", 1e-300), ("Belos Maximum Iterations", 1), ("Preconditioner", "None"),
+               ("Preconditioner", "AMG"), ("Peridigm Preconditioner", "Full Tangent"), ("Peridigm Preconditioner", "Block 3x3")]
+
+    def make(args: tuple) -> Mutation:
+        i, (key, val), pred = args
+        if pred and tops:
+            p = tops[i % len(tops)] + ("Initialize Predictor From Previous Solver",)
+            return Mutation("solver_choice", p, True, "predictors: on", tree_ops=(("set", p, True),))
+        if not subs:
+            p = tops[i % len(tops)] + ("Initialize Predictor From Previous Solver",)
+            return Mutation("solver_choice", p, False, "predictors: off", tree_ops=(("set", p, False),))
+        p = subs[i % len(subs)] + (key,)
+        return Mutation("solver_choice", p, val, f"linear_solver: {key}", tree_ops=(("set", p, val),))
+
+    preds = {"predictors": [True], "linear_solver": [False]}.get(only or "", [False, False, False, True])
+    return st.tuples(st.integers(0, 50), st.sampled_from(choices), st.sampled_from(preds)).map(make)
+
+
+def family_mutations(tree: dict, family: str) -> st.SearchStrategy[Mutation] | None:
+    """A mutation aimed at one model family (see FAMILIES), or None if this tree cannot reach it."""
+    options = [s for s in (family_number(tree, family), model_swap(tree, family)) if s is not None]
+    if family in ("time_stepping", "adaptive_load_stepping"):
+        options += [s for s in (step_size(tree, family),) if s is not None]
+    if family in ("linear_solver", "predictors"):
+        options += [s for s in (solver_choice(tree, family),) if s is not None]
+    return st.sampled_from(options).flatmap(lambda s: s) if options else None
+
+
+def reaches(tree: dict, family: str) -> bool:
+    """Whether ``family_mutations(tree, family)`` can draw anything."""
+    if family in ("linear_solver", "predictors"):
+        return any("Solver" in k for k in tree) and (family == "predictors" or any(
+            p[-1] in ("QuasiStatic", "NOXQuasiStatic", "Implicit", "ImplicitDiffusion") for p, _ in iter_keys(tree)))
+    if family in _FAMILY_MODELS:
+        return True if model_swap(tree, family) is not None else any(_family_of(tree, p) == family for p, _ in iter_leaves(tree))
+    if family in ("time_stepping", "adaptive_load_stepping") and step_size(tree, family) is not None:
+        return True
+    return any(_family_of(tree, p) == family for p, v in iter_leaves(tree) if _number(v) is not None or isinstance(v, bool))
+
+
+_FAMILY_MODELS = {fam for fam, _ in _SWAPS.values()}
+
+
 # ------------------------------------------------------------------------------------------------
 # Putting them together
 # ------------------------------------------------------------------------------------------------
@@ -480,8 +806,9 @@ def file_refs(deck: DeckInfo, tree: dict) -> list[tuple[Path_, str, bool]]:
     return out
 
 
-def mutations(deck: DeckInfo, tree: dict | None = None, focus: str = "check") -> st.SearchStrategy[Mutation]:
-    """One mutation of ``tree`` (default: the deck's own), drawn from every applicable class.
+def mutations(deck: DeckInfo, tree: dict | None = None, focus: str = "check", family: str | None = None) -> st.SearchStrategy[Mutation]:
+    """One mutation of ``tree`` (default: the deck's own), drawn from every applicable class
+    (or, with ``family``, one aimed at that model family when the tree can reach it).
 
     ``focus="run"`` favours valid-but-extreme numbers and expressions (what only a run exercises)
     and avoids scaling values that would make the run much slower."""
@@ -509,12 +836,25 @@ def mutations(deck: DeckInfo, tree: dict | None = None, focus: str = "check") ->
         options.append(duplicate_output(outputs, tree))
     if solvers:
         options.append(time_order(solvers, tree))
-        if run and any(_number(b.get(k)) for n in solvers for b in tree[n].values() if isinstance(b, dict)
+        if run and any(_number(b.get(k)) for n in solvers for _, b in iter_keys(tree[n]) if isinstance(b, dict)
                        for k in ("Fixed dt", "Safety Factor")):
             options += [unstable_step(solvers, tree)] * 4
     loads = [(p, v) for p, v in leaves if p[0] == "Boundary Conditions" and p[-1] == "Value" and isinstance(v, str)]
     if run and loads:
         options += [extreme_load(loads)] * 2
+    # issue 19: whole sections, non-finite values on any key, long names, model families, steps
+    sections = delete_section(tree)
+    options += [sections if sections is not None else delete_key(keys), nonfinite_anywhere(leaves or list(iter_keys(tree)))]
+    if any(isinstance(v, str) for _, v in leaves):
+        options.append(long_string(leaves))
+    extra = [(family_number(tree), 4 if run else 3), (step_size(tree), 2 if run else 1), (model_swap(tree), 2 if run else 1),
+             (solver_choice(tree), 1)]
+    for strategy, weight in extra:
+        if strategy is not None:
+            options += [strategy] * weight
+    if family is not None:
+        aimed = family_mutations(tree, family)
+        options = [aimed] if aimed is not None else options
     fmts = st.sampled_from(["xml", "yaml", "yaml"]) if deck.fmt == "xml" else st.just("yaml")
     chosen = st.sampled_from(options).flatmap(lambda s: s)  # repeats in options are weights
     return st.tuples(chosen, fmts).map(lambda mf: _with_fmt(*mf))

@@ -53,7 +53,9 @@ WRONG_TYPES: list[Any] = [True, False, [1, 2, 3], [1.5, 2.5], ["a", "b"], [], {}
                           "", "abc", "1 2 3", "true", "1e3", NONE, MIXED_LIST, BOOL_LIST, NESTED_LIST, BAD_XML_NUMBER]
 EXTREMES: list[Any] = [math.nan, math.inf, -math.inf, 0, 0.0, -1, -1.0, 1e308, -1e308, 5e-324, -0.0, 2**31 - 1,
                        -(2**31), 10**9, 1e-300, 1e300, HUGE_INT, INT_OVER, Raw("1e999", ("double", "1e999"), "1e999"),
-                       Raw("-nan", ("double", "-nan"), "-nan"), Raw("+inf", ("double", "+inf"), "+inf")]
+                       Raw("-nan", ("double", "-nan"), "-nan"), Raw("+inf", ("double", "+inf"), "+inf"),
+                       Raw(".nan", ("double", "nan"), ".nan"), Raw("-.inf", ("double", "-inf"), "-.inf"),
+                       2.2250738585072014e-308, 1e-30, 1e30, 1.7976931348623157e308]
 
 
 # ------------------------------------------------------------------------------------------------
@@ -95,13 +97,18 @@ def _number(v: Any) -> float | None:
     return float(v)
 
 
-_RAW_NUMBERS = {"1e999": math.inf, "-nan": math.nan, "+inf": math.inf, "10**29 (huge int)": 1.2e29, "2**31": 2.0**31}
-_NOT_NUMBERS = {"", "abc", "1 2 3", "true"}  # the strings WRONG_TYPES puts where a number belongs
+_RAW_NUMBERS = {"1e999": math.inf, "-nan": math.nan, "+inf": math.inf, "10**29 (huge int)": 1.2e29, "2**31": 2.0**31,
+                ".nan": math.nan, "-.nan": math.nan, ".inf": math.inf, "-.inf": -math.inf}
+_NOT_NUMBERS = {"", "abc", "1 2 3", "true"}
+#: strings that a number parser may read as non-finite numbers
+_NONFINITE_TEXT = {"nan": math.nan, "-nan": math.nan, "inf": math.inf, "-inf": -math.inf, "+inf": math.inf}  # the strings WRONG_TYPES puts where a number belongs
 
 
 def _as_float(value: Any) -> float | None:
     if isinstance(value, Raw):
         return _RAW_NUMBERS.get(value.label)
+    if isinstance(value, str) and value.strip().lower() in _NONFINITE_TEXT:
+        return _NONFINITE_TEXT[value.strip().lower()]
     return _number(value)
 
 
