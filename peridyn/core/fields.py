@@ -156,6 +156,18 @@ class FieldStore:
     def nbytes(self) -> int:
         return sum(a.nbytes for a in self._np1.values()) + sum(a.nbytes for a in self._n.values())
 
+    def snapshot(self) -> dict[tuple[str, str], np.ndarray]:
+        """Copies of every array (N and NP1), for :meth:`restore`."""
+        out = {("np1", k): a.copy() for k, a in self._np1.items()}
+        out.update({("n", k): a.copy() for k, a in self._n.items()})
+        return out
+
+    def restore(self, snapshot: dict[tuple[str, str], np.ndarray]) -> None:
+        """Put back the values of :meth:`snapshot` into the same arrays (references held
+        elsewhere stay valid): every field exactly as it was."""
+        for (which, name), saved in snapshot.items():
+            np.copyto((self._np1 if which == "np1" else self._n)[name], saved)
+
 
 TENSOR_SUFFIXES = ("XX", "XY", "XZ", "YX", "YY", "YZ", "ZX", "ZY", "ZZ")
 

@@ -444,15 +444,24 @@ class Simulation:
         """The deck's solvers in order, each as (solver, planned steps, estimated seconds), after
         refusing absurd step counts (see :mod:`peridyn.engine.limits`)."""
         plan = []
-        bonds = float(self.num_bonds_global)
+        if not self.deck.solvers:
+            names = ", ".join(self.deck.registry.names("solver")) if self.deck.registry is not None else "Verlet, QuasiStatic"
+            raise InputError("the deck has no solver section: nothing would be run", file=self.deck.file, path=("Solver",),
+                             fix=f"add a section named 'Solver' with one of: {names} (and its Final Time)")
         for entry in self.deck.solvers:
             solver = entry.cls(entry.params, section=entry.section)
             steps = solver.planned_steps(self)
             seconds = None
             if steps is not None:
-                seconds = limits.check_steps(steps, float(self.num_global), bonds, file=self.deck.file, path=entry.path, section=entry.section)
+                seconds = self.check_steps(steps, entry.path, entry.section)
             plan.append((solver, steps, seconds))
         return plan
+
+    def check_steps(self, steps: float, path: tuple[str, ...], section: str) -> float:
+        """Refuse (InputError) a step count over the limits of :mod:`peridyn.engine.limits`, for
+        a solver planned at set-up or one that starts during the run (a fallback); returns the
+        estimated wall time (s)."""
+        return limits.check_steps(steps, float(self.num_global), float(self.num_bonds_global), file=self.deck.file, path=path, section=section)
 
     def run_solvers(self) -> None:
         """Run the deck's solver sections in deck order (what ``peridyn run`` does between set-up

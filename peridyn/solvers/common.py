@@ -50,6 +50,20 @@ def kinetic_free_kernel(n, v, mass, free):
 
 
 @njit(cache=True)
+def free_mass_acceleration_kernel(n, a, mass, free):
+    """sum_i m_i sum_c a_ic^2 over free components: 8 / dt^2 times the term by which velocity
+    Verlet's conserved (shadow) energy differs from K + E."""
+    total = 0.0
+    for i in range(n):
+        s = 0.0
+        for c in range(3):
+            if free[i, c]:
+                s += a[i, c] * a[i, c]
+        total += mass[i] * s
+    return total
+
+
+@njit(cache=True)
 def step_work_kernel(n, du, f_old, f_new, b_old, b_new, volume, free):
     """(internal work on all components, internal work on prescribed components, body-force
     work on free components) of one step, trapezoidal rule; b_old empty = no body force."""
@@ -110,6 +124,16 @@ class EnergyMonitor:
 
     #: energy created, as a fraction of the largest energy present, that stops a run
     created_fraction = 0.25
+    #: C0 / E0 of the initial state above which its vibrations are resolved by too few steps
+    #: (w dt > 1.41)
+    coarse = 0.5
+    #: C / S that stops a run (see _check_account)
+    unstable_ratio = 4.0
+    #: kinetic energy beyond the supply (and C) that stops a run, as a fraction of the supply
+    excess = 0.5
+    #: per-step growth of the kinetic energy, at 3 consecutive steps, that stops a run without
+    #: an energy account
+    fast_growth = 1000.0
 
     def __init__(self, sim, dt: float, dt_estimate: float, *, window: int = 10, accounting: bool = True, batch: int | None = None) -> None:
         self.sim = sim
@@ -125,6 +149,7 @@ class EnergyMonitor:
         self._empty = np.zeros((0, 3))
         self.has_prescribed = not bool(self.free.all())
         self.kinetic0 = self.kinetic_free()
+        self.shadow0 = self.shadow = sim.comm.allreduce_sum(self._shadow_local())
         self.kinetic = self.kinetic0
         self.stored = 0.0  # relative to the start of this solver
         self.external = 0.0
@@ -140,12 +165,38 @@ class EnergyMonitor:
             self.stored0 = None
         if self.stored0 is not None:
             self.max_scale = max(self.max_scale, abs(self.stored0))
+        #: energy of a strain of 1e-6 everywhere: below it, ratios of energies are round-off
+        volume = sim.comm.allreduce_sum(float(np.sum(sim.fields["Volume"][:n])))
+        stiffest = max((float(getattr(blk.material, "bulk_modulus", 0.0) or 0.0) for blk in sim.blocks), default=0.0)
+        self.floor = 1e-12 * volume * stiffest if math.isfinite(volume * stiffest) else 0.0
+        #: the ratio rules need the energy at the start; where no material reports it and the
+        #: body starts loaded (step-0 forces), it is bounded below only by what the run releases,
+        #: and only a gross excess is taken as proof
+        self.start_known = self.stored0 is not None or not self.shadow0 > self.floor
+        self.released = 0.0  # largest energy the body has given up so far (-E, E from work)
+        self.resolution = 0.0  # largest C / S seen (see _check_account)
+        self.max_excess = 0.0  # largest (K - C) / S seen
+        self.fast: list[float] = [self.kinetic0]  # kinetic energies of the last steps (no accounting)
+        if self.stored0 is not None and self.stored0 > self.floor:
+            self._check_start()
+
+    def supply(self) -> float:
+        """S = K0 + E0 + |W_b| + |W_c| (+ what the body released, where E0 is unknown): the most
+        energy the run can hold, since breaking bonds, friction and plasticity only dissipate."""
+        e0 = self.stored0 if self.stored0 is not None else max(self.shadow0, self.released)
+        return self.kinetic0 + max(e0, 0.0) + abs(self.external) + abs(self.constraint) + self.floor
 
     @staticmethod
     def _energy_known(sim) -> bool:
         from ..core.interfaces import Material
 
         return all(type(blk.material).stored_energy_density is not Material.stored_energy_density for blk in sim.blocks)
+
+    def _shadow_local(self) -> float:
+        a = getattr(self.sim, "acceleration", None)
+        if a is None:
+            return 0.0
+        return 0.125 * self.dt * self.dt * free_mass_acceleration_kernel(self.sim.num_owned, a, self.mass, self.free)
 
     def _kinetic_local(self) -> float:
         return kinetic_free_kernel(self.sim.num_owned, self.sim.fields["Velocity"], self.mass, self.free)
@@ -184,7 +235,7 @@ class EnergyMonitor:
         n = sim.num_owned
         w_all, w_presc, w_body = self._pending
         self._pending = (0.0, 0.0, 0.0)
-        local = np.array([w_all, w_presc, w_body, self._kinetic_local(), float(np.sum(sim.fields["Force_Density"][:n]))])
+        local = np.array([w_all, w_presc, w_body, self._kinetic_local(), float(np.sum(sim.fields["Force_Density"][:n])), self._shadow_local()])
         if sim.comm.size == 1:
             self._account(step, time, local)
             return
@@ -209,6 +260,7 @@ class EnergyMonitor:
         self.constraint -= total[1]
         self.external += total[2]
         self.kinetic = float(total[3])
+        self.shadow = float(total[5])
         if not (math.isfinite(total[3]) and math.isfinite(total[4])):
             self._fail_nonfinite(step, time)
         scale = self._scale()
@@ -216,6 +268,10 @@ class EnergyMonitor:
         self.max_balance = max(self.max_balance, err)
         self.max_scale = max(self.max_scale, scale)
         self.history.append((self.kinetic, scale))
+        if self.accounting:
+            self._check_account(step, time)
+        else:
+            self._check_fast_growth(step, time)
         w = self.window
         if len(self.history) <= w:
             return
@@ -233,6 +289,65 @@ class EnergyMonitor:
             before = self.history[0][1]
             if before > 0 and err > max(before, 0.5 * scale) and ke[-1] > 4.0 * ke[-half - 1]:
                 self._fail_growth(step, time, ke[-1] / ke[-half - 1] if ke[-half - 1] > 0 else math.inf, steps=half)
+
+    def _check_account(self, step: int, time: float) -> None:
+        """The rules that need no history, so that a run of a few steps is judged too.
+
+        Velocity Verlet conserves, for linear forces, the shadow energy K + E - C with
+        C = dt^2/8 sum m |a|^2 over free components (the trapezoidal balance K + E - W - K0
+        above equals C - C0 exactly). For one vibration of frequency w, C / E = (w dt)^2 / 4 =: r:
+        below 1 when the step is stable for it. The energy E the run holds is at most the supply S
+        plus C (see ``supply``), so a stable run keeps C / S below r / (1 - r): a few at most
+        unless w dt is close to 2. A run whose C / S passes ``unstable_ratio`` (r >= 0.8,
+        w dt >= 1.79) is at or past the stability limit of the vibrations that carry its energy;
+        a blow-up passes it within a few steps, and a step far above the limit at the first.
+        Independently, the kinetic energy cannot exceed S by more than C (the same identity with
+        E >= 0): ``excess`` bounds the round-off and nonlinear slack of that.
+
+        C - C0 is also Verlet's energy error itself (K + E differs from the conserved shadow
+        energy by C): bounded in a stable run, and large where the vibrations that carry the
+        energy are resolved by few steps per period, which the estimate does not see (a chain of
+        four LPS points at half the estimate's step: 50 %; a small LPS bar struck at one end at
+        the estimate's step: 110 %). That is Verlet's answer to the deck, as Peridigm's: it is
+        reported at the end of the run (``Verlet``), not stopped.
+        """
+        self.released = max(self.released, -self.stored)
+        supply = self.supply()
+        if not supply > 0.0:
+            return
+        ratio = self.shadow / supply
+        self.resolution = max(self.resolution, ratio)
+        self.max_excess = max(self.max_excess, (self.kinetic - self.shadow) / supply)
+        factor = 1.0 if self.start_known else 100.0
+        if ratio > self.unstable_ratio * factor:
+            self._fail_accelerations(step, time, ratio)
+
+
+        if self.kinetic - self.shadow > (1.0 + self.excess) * factor * supply:
+            self._fail_excess(step, time, supply)
+
+    def _check_start(self) -> None:
+        """The initial state alone: for linear forces E0 = u.Ku/2 and the same sum as C over the
+        internal (and contact) forces, C0 = dt^2/8 u.K M^-1 K u, so C0 / E0 <= (w_max dt)^2/4
+        (a Rayleigh quotient); body forces and velocities are left out, as they store nothing."""
+        sim = self.sim
+        n = sim.num_owned
+        rho = sim.density_per_point()[:n]
+        local = 0.125 * self.dt * self.dt * free_mass_acceleration_kernel(n, sim.fields["Force_Density"][:n] / rho[:, None], self.mass, self.free)
+        ratio = sim.comm.allreduce_sum(local) / (self.kinetic0 + self.stored0 + self.floor)
+        self.resolution = max(self.resolution, ratio)
+        if ratio > self.coarse:
+            self._fail_resolution(0, sim.time, ratio)
+
+    def _check_fast_growth(self, step: int, time: float) -> None:
+        """Without an energy account: kinetic energy 1000x larger at each of 3 consecutive steps
+        (a physical load would need to grow like t^24)."""
+        self.fast.append(self.kinetic)
+        if len(self.fast) > 4:
+            self.fast.pop(0)
+        k = self.fast
+        if len(k) == 4 and all(b > self.fast_growth * a if a > 0 else b > 0 for a, b in zip(k, k[1:])) and k[-1] > self.floor:
+            self._fail_growth(step, time, k[-1] / k[0] if k[0] > 0 else math.inf, steps=3)
 
     # diagnosis --------------------------------------------------------------------------------
     def _worst_point(self) -> str:
@@ -281,6 +396,45 @@ class EnergyMonitor:
             f"supplied and no stored energy released ({created / self.max_scale:.0%} of the largest energy of the run; bond "
             f"breaking can only dissipate energy), fastest at {where}; " + self._advice()
         )
+
+    def _fail_resolution(self, step: int, time: float, ratio: float) -> None:
+        where = self._fastest_acceleration()
+        raise InstabilityError(
+            f"the run was stopped at step {step} (t = {time:.6g}): the time step resolves the vibrations that carry the initial "
+            f"energy with fewer than 4.4 steps per period (Verlet's stability parameter (w dt)^2/4 measured on the initial state: "
+            f"at least {ratio:.3g}; stable below 1, accurate well below 0.5), largest at {where}; " + self._advice()
+        )
+
+    def _fail_accelerations(self, step: int, time: float, ratio: float) -> None:
+        where = self._fastest_acceleration()
+        raise InstabilityError(
+            f"the run went unstable at step {step} (t = {time:.6g}): the time step is at or past the stability limit of the "
+            f"vibrations that carry the energy (dt^2/8 sum m|a|^2 is {ratio:.3g} times all the energy supplied to the run; a stable "
+            f"step keeps it a fraction of it), largest acceleration at {where}; " + self._advice()
+        )
+
+    def _fail_excess(self, step: int, time: float, supply: float) -> None:
+        where = self._worst_point()
+        raise InstabilityError(
+            f"the run went unstable at step {step} (t = {time:.6g}): its kinetic energy {self.kinetic:.4g} exceeds all the "
+            f"energy the initial state and the loads supplied ({supply:.4g}), fastest at {where}; " + self._advice()
+        )
+
+    def _fastest_acceleration(self) -> str:
+        """The point of largest acceleration over all ranks (where the step is least resolved)."""
+        sim = self.sim
+        n = sim.num_owned
+        a = getattr(sim, "acceleration", None)
+        if a is None or not n:
+            return self._worst_point()
+        mag = np.einsum("ij,ij->i", a[:n], a[:n])
+        k = int(np.argmax(np.where(np.isfinite(mag), mag, np.inf)))
+        x = sim.fields["Model_Coordinates"][k]
+        blk = sim.blocks[int(sim.block_index[k])].name
+        where = f"point {int(sim.gid[k]) + 1} (block {blk}, x = {x[0]:.4g}, {x[1]:.4g}, {x[2]:.4g})"
+        if sim.comm.size > 1:
+            _, where = max(sim.comm.allgather((float(mag[k]), where)), key=lambda c: c[0])
+        return where
 
     def _fail_growth(self, step: int, time: float, growth: float, steps: int | None = None) -> None:
         where = self._worst_point()

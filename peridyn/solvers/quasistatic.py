@@ -39,7 +39,7 @@ from typing import Literal
 import numpy as np
 from pydantic import Field, field_validator, model_validator
 
-from ..core.errors import InstabilityError
+from ..core.errors import InputError, InstabilityError
 from ..core.interfaces import Solver
 from ..core.params import ModelParams
 from .common import SolverSection
@@ -148,6 +148,9 @@ class QuasiStatic(Solver):
         return "default"
 
     def planned_steps(self, sim) -> int | None:
+        adaptive = self.params.quasi_static.adaptive
+        if adaptive is not None and adaptive.switch_to_verlet is not None:  # its own limits, at set-up
+            fallback_verlet(self, sim, self.params.initial_time, self.params.final_time)
         return planned_load_steps(self.params, self.params.quasi_static)
 
     def run(self, sim) -> None:
@@ -165,6 +168,24 @@ class QuasiStatic(Solver):
                         file=sim.deck.file, path=(self.section,), fix="set 'Multiphysics: 1' at the top level (and use Multiphysics materials), or remove the Solve For keys",
                     )
                 QuasiStaticRun(self, sim).run()
+
+
+def fallback_verlet(solver: QuasiStatic, sim, t_start: float, t_final: float):
+    """The ``Switch to Verlet`` continuation of ``solver`` over [t_start, t_final], after the
+    estimate-and-limit rules of any Verlet section (InputError: no step would fit, or too many)."""
+    from .verlet import Verlet, VerletSection
+
+    sw = solver.params.quasi_static.adaptive.switch_to_verlet
+    verlet = {"Fixed dt": sw.fixed_dt} if sw.fixed_dt is not None else {"Safety Factor": sw.safety_factor if sw.safety_factor is not None else 1.0}
+    params = VerletSection.model_validate({"Initial Time": t_start, "Final Time": t_final, "Verlet": verlet})
+    fallback = Verlet(params, section=f"{solver.section} > Switch to Verlet")
+    path = (solver.section, "QuasiStatic", "Adaptive Load-Stepping", "Switch to Verlet")
+    try:
+        steps = fallback.planned_steps(sim)
+    except InputError as exc:
+        raise InputError(exc.message, file=sim.deck.file, path=path, fix=exc.fix) from None
+    sim.check_steps(steps, path, fallback.section)
+    return fallback
 
 
 class QuasiStaticRun:
@@ -444,16 +465,16 @@ class QuasiStaticRun:
         return (text + f"; {self.failure}") if self.failure is not None else text
 
     def switch_to_verlet(self, t_start: float, t_final: float, predictor: np.ndarray) -> None:
-        from .verlet import Verlet, VerletSection
-
         sim = self.sim
         sw = self.q.adaptive.switch_to_verlet
         log.warning("%s: too many load step reductions; continuing with explicit dynamics (Verlet) from t = %.6g", self.section, t_start)
-        verlet = {"Fixed dt": sw.fixed_dt} if sw.fixed_dt is not None else {"Safety Factor": sw.safety_factor if sw.safety_factor is not None else 1.0}
-        params = VerletSection.model_validate({"Initial Time": t_start, "Final Time": t_final, "Verlet": verlet})
         if sw.output_frequency is not None:
             change_output_frequency(sim.outputs.writers, sw.output_frequency)
+        try:
+            verlet = fallback_verlet(self.solver, sim, t_start, t_final)
+        except InputError as exc:
+            raise LoadStepError(f"{self.section} > Switch to Verlet cannot continue the run from t = {t_start:.6g}: {exc.message}") from None
         n = self.n
         np.add(self.x, self.u, out=self.y)
         self.v[:n] = predictor
-        Verlet(params, section=f"{self.section} > Switch to Verlet").run(sim)
+        verlet.run(sim)

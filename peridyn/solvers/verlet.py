@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit, prange
 from pydantic import Field
 
-from ..core.errors import InputError
+from ..core.errors import InputError, InstabilityError
 from ..core.interfaces import Solver
 from ..core.params import ModelParams
 from .progress import Progress
@@ -59,10 +59,10 @@ class Verlet(Solver):
             return dt, dt_crit
         if p.safety_factor is not None and p.safety_factor > 1.0:
             log.warning(
-                "%s: Safety Factor %.3g > 1: the critical time step estimate is conservative (the Verlet limit is typically "
-                "1.8-2.6 times it), but a run this close to the limit can go unstable",
-                self.section,
-                p.safety_factor,
+                "%s: Safety Factor %.3g > 1: the critical time step estimate is no bound for state-based materials (their "
+                "surfaces stiffen them: an LPS plate's limit is about 1.4 times it), and a run this close to the limit can go "
+                "unstable where damage stiffens the material",
+                self.section, p.safety_factor,
             )
         elif p.fixed_dt is not None and dt > dt_crit:
             log.warning("%s: the time step %.4g exceeds the critical time step estimate %.4g (ratio %.3g)", self.section, dt, dt_crit,
@@ -79,18 +79,64 @@ class Verlet(Solver):
                 )
         return dt, dt_crit
 
+    #: time steps above this fraction of the estimate are checked against the measured limit
+    MEASURE_ABOVE = 0.9
+    #: growth of an unstable vibration over the run above which it is not run
+    MAX_AMPLIFICATION = 1.0e3
+
+    def _measure(self, sim, dt: float, dt_crit: float, steps: int) -> float:
+        """The stable limit measured on the model (see :mod:`.stable_step`) when ``dt`` is above
+        ``MEASURE_ABOVE`` times the estimate, else inf. InstabilityError when ``dt`` is above it
+        and the ``steps`` of the run would amplify the unstable vibration more than
+        ``MAX_AMPLIFICATION`` times (a run of a few steps that moves nothing, as Peridigm's
+        VariableHorizonParsing at 3.4 times the estimate, still gives its answer)."""
+        if not dt > self.MEASURE_ABOVE * dt_crit:
+            return math.inf
+        from .stable_step import measured_stable_step
+
+        limit, iterations = measured_stable_step(sim, dt, stop_below=dt)
+        if dt < limit:
+            return limit
+        b = 2.0 * (dt / limit) ** 2 - 1.0  # (w dt)^2/2 - 1 >= 1 for the vibration found
+        per_step = b + math.sqrt(max(b * b - 1.0, 0.0))  # |eigenvalue| of the Verlet step
+        if steps * math.log10(per_step) < math.log10(self.MAX_AMPLIFICATION):
+            log.warning("%s: the time step %.4g is above the stable limit measured on the model (at most %.4g), but its %d "
+                        "step(s) amplify the unstable vibration at most %.3g times", self.section, dt, limit, steps, per_step ** steps)
+            return limit
+        p = self.params.verlet
+        key = "Safety Factor" if p.safety_factor is not None and p.fixed_dt is None else "Fixed dt"
+        fit = f"'Safety Factor' below {limit / dt_crit:.3g}" if key == "Safety Factor" else f"a 'Fixed dt' below {limit:.4g}"
+        raise InstabilityError(
+            f"{self.section}: the run would go unstable from its first step: the time step {dt:.4g} ({dt / dt_crit:.3g} x the "
+            f"estimate {dt_crit:.4g}) is above the stable limit measured on the model, at most {limit:.4g} "
+            f"({limit / dt_crit:.3g} x the estimate; {iterations} power iterations on its forces); use {fit}"
+        )
+
     def planned_steps(self, sim) -> int:
         return self._steps(sim, self.time_step(sim, warn=False)[0])
 
     def _steps(self, sim, dt: float) -> int:
-        """floor((t_final - t_initial) / dt); an input error when that cannot be counted."""
-        steps = (self.params.final_time - self.params.initial_time) / dt
+        """floor((t_final - t_initial) / dt); an input error when that cannot be counted or is 0
+        (a run that would end "done" without a step: a time step longer than the interval, as
+        a modulus given in GPa instead of Pa makes the critical step 3e4 times too long)."""
+        t0, t1 = self.params.initial_time, self.params.final_time
+        steps = (t1 - t0) / dt
         if not math.isfinite(steps):
             raise InputError(
                 f"the time step {dt!r} is too small for the time span to be counted in steps",
                 file=sim.deck.file, path=(self.section, "Verlet"), fix="check Fixed dt and Final Time",
             )
-        return max(int(math.floor(steps)), 0)
+        if steps < 1.0:
+            p = self.params.verlet
+            source = "'Fixed dt'" if p.fixed_dt is not None else "the critical time step estimate"
+            raise InputError(
+                f"the time step {dt:.6g} ({source}{' times the Safety Factor' if p.safety_factor is not None else ''}) is longer "
+                f"than the solver's interval {t1 - t0:.6g} (Initial Time {t0:.6g} to Final Time {t1:.6g}): not one step would be run",
+                file=sim.deck.file, path=(self.section, "Verlet"),
+                fix="give a later 'Final Time' or a smaller time step; if the step is the estimate, check the units of the "
+                "moduli and density (a modulus in GPa instead of Pa makes it about 3e4 times too long)",
+            )
+        return int(math.floor(steps))
 
     def run(self, sim) -> None:
         s = self.params
@@ -123,6 +169,9 @@ class Verlet(Solver):
         acceleration_kick_kernel(n, f["Force_Density"], f["External_Force_Density"] if has_b else no_b, rho, dt2, a, v, False)
         sim.load_data(t)
         sim.write_output(t)
+        limit = self._measure(sim, dt, dt_crit, nsteps)
+        if math.isfinite(limit):
+            log.info("%s: stable limit measured on the model: at most %.4g (%.3g x the estimate)", self.section, limit, limit / dt_crit)
 
         monitor = EnergyMonitor(sim, dt, dt_crit)
         sim.energy = monitor
@@ -163,11 +212,14 @@ class Verlet(Solver):
         progress.close()
         if monitor.accounting and monitor.max_error > SUSPECT_BALANCE_ERROR:
             log.warning(
-                "%s: the energy balance error reached %.1f%% of the energy of the run (stable runs stay below 1%%): "
-                "the time step may be too large for this model; check with a smaller 'Safety Factor'",
+                "%s: the energy of the run was off by up to %.1f%% (velocity Verlet's energy error, bounded in a stable run: "
+                "the vibrations that carry the energy are resolved by few steps per period; accurate runs stay below 1%%): "
+                "a smaller 'Safety Factor' gives a more accurate answer",
                 self.section, 100.0 * monitor.max_error,
             )
         wall = _time.perf_counter() - wall0
+        log.debug("%s: energy monitor: largest C/S %.4g, largest (K - C)/S %.4g, start energy known %s", self.section,
+                  monitor.resolution, monitor.max_excess, monitor.start_known)
         sim.stats.setdefault("solvers", []).append(
             {
                 "section": self.section,
@@ -188,6 +240,8 @@ class Verlet(Solver):
                     "constraint_work": monitor.constraint,
                     "balance_error": monitor.balance,
                     "max_relative_error": monitor.max_error,
+                    "resolution": monitor.resolution,
+                    "kinetic_over_supply": monitor.max_excess,
                 },
             }
         )

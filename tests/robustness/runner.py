@@ -59,8 +59,11 @@ MAX_LINE = int(os.environ.get("PERIDYN_FUZZ_MAX_LINE", "400"))
 WORK_KEYS = {"Final Time", "Initial Time", "Fixed dt", "Safety Factor", "Number of Load Steps", "Time Steps",
              "Horizon", "Number Points X", "Number Points Y", "Number Points Z", "Number Points Radius",
              "X Length", "Y Length", "Z Length", "Output Frequency", "Maximum Solver Iterations"}
-#: largest energy balance error (% of the run's energy scale) an exit-0 run may report
-MAX_BALANCE_PCT = float(os.environ.get("PERIDYN_FUZZ_MAX_BALANCE", "5"))
+#: largest energy balance error (% of the run's energy scale) an exit-0 run may report. The
+#: balance of velocity Verlet is its bounded energy error dt^2/8 sum m|a|^2 (solvers/common.py):
+#: a stable run at a step near its limit reaches tens of percent (WaveInBar at 1.65 times the
+#: estimate, 27 %; its measured limit is 2.63 times it), and peridyn itself stops runs past 50 %
+MAX_BALANCE_PCT = float(os.environ.get("PERIDYN_FUZZ_MAX_BALANCE", "50"))
 #: fewest steps, and smallest energy scale, of a run whose energy balance is judged (a run of a
 #: step or two is off by one step's energy; a model at rest has round-off energies of 1e-34)
 MIN_BALANCE_STEPS = 10
@@ -259,7 +262,7 @@ _SOLVER_LINE = re.compile(rf"^(?P<section>\S.*?) \((?P<method>[\w ]+)\): (?P<ste
 _ENERGY_LINE = re.compile(rf"^\s+energy: kinetic (?P<k0>{_NUM}) -> (?P<k1>{_NUM}), stored (?P<stored>{_NUM}), "
                           rf"work by loads (?P<work>{_NUM}), by prescribed motion (?P<motion>{_NUM}); "
                           rf"balance error (?P<err>{_NUM}) \((?P<pct>{_NUM})% of the energy scale, worst (?P<worst>{_NUM})%\)", re.M)
-_BALANCE_WARNING = re.compile(rf"energy balance error (?:reached |of )?(?P<pct>{_NUM})%")
+_BALANCE_WARNING = re.compile(rf"energy (?:balance error (?:reached |of )?|of the run was off by up to )(?P<pct>{_NUM})%")
 _DONE_LINE = re.compile(r"^done in .*?; wrote (?P<files>.*)$", re.M)
 
 

@@ -29,7 +29,7 @@ def test_outputs_nobody_asked_for_are_not_allocated():
 def test_serial_run_imports_neither_mpi_nor_contact_code(tmp_path):
     deck = tmp_path / "d.yaml"
     tree = cube_deck(ELASTIC, n=3)
-    tree["Solver"] = {"Final Time": 1e-4, "Verlet": {"Safety Factor": 0.5}}
+    tree["Solver"] = {"Final Time": 5e-3, "Verlet": {"Safety Factor": 0.5}}
     tree["Output"] = {"Output Filename": "o", "Output Frequency": 1, "Output Variables": {"Displacement": True}}
     from peridyn.deck.files import dump_yaml
 

@@ -123,9 +123,30 @@ def test_the_total_limit_counts_every_halving(h, tmp_path, tolerance):
 
 def test_switch_to_verlet_restarts_from_the_last_accepted_step(h, tmp_path, tolerance):
     sim = qs(h, tmp_path, qs={"Absolute Tolerance": tolerance}, **{"Maximum load step reductions in one step": 2, "Maximum total load step reductions": 2,
-                                                                "Switch to Verlet": {"Fixed dt": 0.05, "Output Frequency": 4}})
+                                                                "Switch to Verlet": {"Fixed dt": 1.0e-4, "Output Frequency": 400}})
     sim.run_solvers()
     st = sim.stats["solvers"]
     assert [s["method"] for s in st] == ["QuasiStatic", "Verlet"]
-    assert st[1]["steps"] == 10  # from t_prev = 0.5 to 1.0 at dt 0.05
-    assert sim.outputs.writers[0].frequency == 4
+    assert st[1]["steps"] == 5000  # from t_prev = 0.5 to 1.0 at dt 1e-4 (below the estimate, 1.18e-4)
+    assert sim.outputs.writers[0].frequency == 400
+
+
+def test_a_switch_to_verlet_that_cannot_advance_stops_the_run(h, tmp_path, tolerance):
+    """The fallback's step (0.6) is longer than what is left after the last accepted step
+    (0.5 to 1.0): no step fits, the run cannot reach its final time, exit 3 (it ended 'done'
+    with nothing written past the last load step)."""
+    sim = qs(h, tmp_path, qs={"Absolute Tolerance": tolerance}, **{"Maximum load step reductions in one step": 2, "Maximum total load step reductions": 2,
+                                                                "Switch to Verlet": {"Fixed dt": 0.6}})
+    with pytest.raises(LoadStepError, match=r"Switch to Verlet cannot continue the run from t = 0.5: .*longer than the solver's interval 0.5"):
+        sim.run_solvers()
+
+
+def test_a_switch_to_verlet_with_an_absurd_step_count_is_refused_at_set_up(h, tmp_path):
+    """The estimate-and-limit rules of a Verlet section apply to the fallback before anything
+    runs (a Fixed dt of 1e-300 announced a 300-digit step count and never ended)."""
+    from peridyn.core.errors import InputError
+
+    sim = qs(h, tmp_path, **{"Maximum load step reductions in one step": 2, "Maximum total load step reductions": 2,
+                            "Switch to Verlet": {"Fixed dt": 1e-300}})
+    with pytest.raises(InputError, match=r"Adaptive Load-Stepping > Switch to Verlet: .*steps"):
+        sim.plan_solvers()
