@@ -9,7 +9,7 @@ import sys
 import time
 from pathlib import Path
 
-from .core.errors import ExitCode, InputError, InstabilityError, PeridynError
+from .core.errors import ExitCode, InputError, InstabilityError, OutputWriteError, PeridynError
 
 log = logging.getLogger("peridyn")
 
@@ -474,6 +474,11 @@ def _main(argv: list[str] | None) -> int:
         print(f"error: {exc}", file=sys.stderr)
         print("the output written so far is kept and readable", file=sys.stderr)
         return int(ExitCode.UNSTABLE)
+    except OutputWriteError as exc:
+        if debug:
+            raise
+        print(f"error: {exc}", file=sys.stderr)
+        return int(exc.exit_code)
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return int(ExitCode.INTERRUPTED)

@@ -23,6 +23,8 @@ class ExitCode(IntEnum):
 
 #: longest piece (file, path, message, fix) of an error line before it is shortened
 MAX_PIECE = 140
+#: longest error line after its file name (deck path, message and fix)
+MAX_LINE = 380
 
 
 def sane(text: str, limit: int = MAX_PIECE) -> str:
@@ -35,15 +37,32 @@ def sane(text: str, limit: int = MAX_PIECE) -> str:
     return out
 
 
+def is_file(path: object) -> bool:
+    """Whether ``path`` names an existing regular file; False (not an exception) for a name the
+    system refuses: too long, NUL bytes, a component that is a file."""
+    import os
+
+    try:
+        return os.path.isfile(str(path))
+    except (OSError, ValueError):
+        return False
+
+
 def missing_file(path: object, what: str) -> str:
-    """Why ``path`` cannot be opened as a file: ``"<what> 'x' is a folder, not a file"`` or
-    ``"<what> 'x' not found"``."""
+    """Why ``path`` cannot be opened as a file: ``"<what> 'x' is a folder, not a file"``, a name
+    too long for the file system, or ``"<what> 'x' not found"``."""
+    import errno
     import os
 
     text = str(path)
     try:
+        os.stat(text)
         folder = os.path.isdir(text)
-    except (OSError, ValueError):  # a name the system refuses
+    except ValueError:  # NUL bytes
+        return f"{what} {text!r} is not a valid file name"
+    except OSError as exc:
+        if exc.errno == errno.ENAMETOOLONG:
+            return f"{what} name is too long for the file system ({len(os.path.basename(text))} characters)"
         folder = False
     return f"{what} {text!r} is a folder, not a file" if folder else f"{what} {text!r} not found"
 
@@ -90,14 +109,29 @@ class InputError(PeridynError):
         super().__init__(self.one_line())
 
     def one_line(self) -> str:
+        """``file:line: deck path: message; fix`` on one line; past the file, at most
+        ``MAX_LINE`` characters (the longest pieces, often an echoed value, elided in the middle)."""
+        path = sane(format_path(self.path)) if self.path else ""
+        message = sane(self.message, 240)
+        fix = sane(self.fix) if self.fix else ""
+        for piece, floor in (("message", 160), ("fix", 100), ("path", 80)):
+            over = len(path) + len(message) + len(fix) + 4 - MAX_LINE
+            if over <= 0:
+                break
+            if piece == "message":
+                message = sane(self.message, max(floor, len(message) - over))
+            elif piece == "fix" and fix:
+                fix = sane(self.fix, max(floor, len(fix) - over))
+            elif piece == "path" and path:
+                path = sane(format_path(self.path), max(floor, len(path) - over))
         where = []
         if self.file:
             where.append(sane(f"{self.file}:{self.line}" if self.line else self.file))
-        if self.path:
-            where.append(sane(format_path(self.path)))
-        text = ": ".join(where + [sane(self.message, 240)])
-        if self.fix:
-            text += f"; {sane(self.fix)}"
+        if path:
+            where.append(path)
+        text = ": ".join(where + [message])
+        if fix:
+            text += f"; {fix}"
         return text
 
     def in_file(self, file: str | None) -> "InputError":
@@ -147,6 +181,13 @@ class InstabilityError(PeridynError):
     def __init__(self, message: str, *, collective: bool = True) -> None:
         super().__init__(message)
         self.collective = collective
+
+
+class OutputWriteError(PeridynError):
+    """An output file could not be written (disk full, a file-size limit): the run failed, the
+    frames written before stay in ``NAME.partial.e`` and an earlier ``NAME.e`` is untouched."""
+
+    exit_code = ExitCode.UNSTABLE
 
 
 def raise_collected(errors: list[InputError]) -> None:

@@ -4,19 +4,18 @@ without neighbors are named in a warning)."""
 from __future__ import annotations
 
 import logging
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..core.errors import InputError
+from ..core.errors import InputError, is_file
 
 log = logging.getLogger("peridyn.engine")
 
 
 def mesh_file(disc: Any, deck_file: str) -> str:
     """The mesh file the points came from, or the deck for generated points."""
-    return disc.source if disc.source and Path(disc.source).is_file() else deck_file
+    return disc.source if disc.source and is_file(disc.source) else deck_file
 
 
 def finite_points(disc: Any, file: str, path: tuple[str, ...]) -> None:

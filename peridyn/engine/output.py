@@ -6,6 +6,7 @@ shared across solvers (PERIDIGM_SEMANTICS.md §9.2).
 """
 from __future__ import annotations
 
+import contextlib
 import difflib
 import errno
 import logging
@@ -16,7 +17,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..core.errors import InputError, InstabilityError, raise_collected
+from ..core.errors import InputError, InstabilityError, OutputWriteError, raise_collected
 from ..core.fields import FieldSpec, Relation, Temporal, component_names
 from ..core.interfaces import Simulation
 
@@ -443,7 +444,8 @@ class OutputWriter:
         if getattr(sim, "interfaces", None) is not None:  # Interfaces.e first, at this file's step
             sim.interfaces.write(self.frames + 1, t)
         if self._writer is None:
-            self._open()
+            with self._writing(t):
+                self._open()
         nodal = {}
         element = {}
         glob = {}
@@ -474,8 +476,22 @@ class OutputWriter:
             glob[cname] = float(arr[k])
         self._check_finite(t)
         if comm.is_root:
-            self._writer.write_step(t, nodal=nodal, element=element, glob=glob)
+            with self._writing(t):
+                self._writer.write_step(t, nodal=nodal, element=element, glob=glob)
         self.frames += 1
+
+    @contextlib.contextmanager
+    def _writing(self, t: float):
+        """OutputWriteError (exit 3) for a file the system refuses to write (disk full, a file
+        size limit): a failed run, not a bug."""
+        try:
+            yield
+        except (OSError, RuntimeError) as exc:
+            reason = getattr(exc, "strerror", None) or str(exc)
+            raise OutputWriteError(
+                f"{self.entry.section}: writing {self.partial_path.name} failed at t = {t:.6g} ({reason}); the frames written "
+                f"before it are in {self.partial_path.name}, and {self.path.name} is left as it was"
+            ) from None
 
     def _check_finite(self, t: float) -> None:
         """Stop (exit 3, on every rank) before a frame with a non-finite value is written,
@@ -545,7 +561,12 @@ class OutputWriter:
     def close(self, complete: bool = True) -> None:
         if self._writer is None:
             return
-        self._writer.close()
+        try:
+            self._writer.close()
+        except (OSError, RuntimeError) as exc:
+            if complete:
+                raise OutputWriteError(f"{self.entry.section}: closing {self.partial_path.name} failed ({exc})") from None
+            log.warning("closing %s failed (%s)", self.partial_path.name, exc)
         if isinstance(self._writer, _NullWriter):
             return
         self._writer = None

@@ -28,7 +28,7 @@ from typing import Any, ClassVar, Literal
 
 import numpy as np
 from .neighbors import compact
-from ..core.errors import InputError, missing_file, raise_collected
+from ..core.errors import InputError, is_file, missing_file, raise_collected
 from pydantic import Field, ValidationError, model_validator
 
 from ..core.params import DECK_CONTEXT, ModelParams
@@ -374,7 +374,7 @@ def read_exodus_polygons(
 
     file = Path(file)
     fname = str(file)
-    if not file.is_file():
+    if not is_file(file):
         raise InputError(
             missing_file(file, "Exodus mesh file"), path=path,
             fix="check the file name (relative to the deck's folder)",

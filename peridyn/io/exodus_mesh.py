@@ -35,7 +35,7 @@ from pydantic import Field
 from ..core.discretization import Discretization
 from ..core.interfaces import DiscretizationReader
 from ..core.params import ModelParams
-from ..core.errors import InputError, missing_file
+from ..core.errors import InputError, is_file, missing_file
 from .nodesets import find_input_file
 from .textfile import min_element_radius
 
@@ -283,7 +283,7 @@ def read_exodus_mesh(path: Path | str) -> Discretization:
 
     path = Path(path)
     file = str(path)
-    if not path.is_file():
+    if not is_file(path):
         raise InputError(
             missing_file(path, "mesh file"),
             path=("Discretization", "Input Mesh File"),

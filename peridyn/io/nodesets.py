@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.errors import InputError, missing_file
+from ..core.errors import InputError, is_file, missing_file
 
 __all__ = ["find_input_file", "is_node_set_file_name", "parse_node_set_value", "read_node_set_file"]
 
@@ -66,7 +66,7 @@ def find_input_file(name: str, deck_dir: Path) -> Path:
     if _exists(candidate):
         return candidate
     fallback = Path(deck_dir) / path.name
-    if path.name and _exists(fallback) and fallback.is_file() and fallback != candidate:
+    if path.name and is_file(fallback) and fallback != candidate:
         _log.warning("%s not found; using %s from the deck's folder", candidate, fallback)
         return fallback
     return candidate
@@ -190,7 +190,7 @@ def parse_node_set_value(value: str, *, deck_dir: Path, path: tuple[str, ...], d
     if is_node_set_file_name(value):
         name = value.strip()
         file_path = find_input_file(name, deck_dir)
-        if not (_exists(file_path) and file_path.is_file()):
+        if not is_file(file_path):
             raise InputError(
                 missing_file(name, "node-set file") if not _exists(file_path) else f"node-set file {name!r} is a folder, not a file",
                 file=deck_file,

@@ -55,7 +55,7 @@ DECK = textwrap.dedent(
         Value: "rnd(1.0)"
     Solver:
       Initial Time: 0.0
-      Final Time: 1.0e-6
+      Final Time: 1.0e-3
       Verlet:
         Safety Factor: 0.5
     Output:
@@ -279,3 +279,28 @@ def test_an_output_variable_of_another_material_is_one_line_naming_the_models(tm
     assert "Elastic Correspondence" in next(ln for ln in lines if "Cauchy_Stress" in ln)
     assert "did you mean 'Displacement'" in next(ln for ln in lines if "Displacment" in ln)
     assert all(len(ln.replace(str(deck), "deck.yaml")) < 300 for ln in lines)
+
+
+def test_an_output_the_system_refuses_to_write_is_a_failed_run_not_a_bug(tmp_path, capsys, monkeypatch):
+    """Disk full or a file-size limit: exit 3 with one line, the earlier NAME.e untouched, the
+    frames written before in NAME.partial.e (it was exit 1, 'internal error')."""
+    import errno
+
+    from peridyn.io.exodus_writer import ExodusWriter
+
+    deck = write(tmp_path)
+    (tmp_path / "run.e").write_bytes(b"an earlier result")
+    calls = []
+
+    def full(self, *a, **k):
+        calls.append(1)
+        if len(calls) > 2:
+            raise OSError(errno.EFBIG, "File too large")
+
+    monkeypatch.setattr(ExodusWriter, "write_step", full)
+    assert run(deck) == ExitCode.UNSTABLE
+    lines = error_lines(capsys)
+    assert lines[-1].startswith("error: Output: writing run.partial.e failed at t = ") and "File too large" in lines[-1]
+    assert (tmp_path / "run.e").read_bytes() == b"an earlier result"
+    assert (tmp_path / "run.partial.e").exists()
+    assert not (tmp_path / "run.lock").exists()
