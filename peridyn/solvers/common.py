@@ -350,23 +350,31 @@ class EnergyMonitor:
             self._fail_growth(step, time, k[-1] / k[0] if k[0] > 0 else math.inf, steps=3)
 
     # diagnosis --------------------------------------------------------------------------------
-    def _worst_point(self) -> str:
-        """The point with a non-finite velocity, else the fastest one, over all ranks."""
+    def _locate(self, vectors: np.ndarray | None) -> str:
+        """The point whose vector (rows of ``vectors``, local points) is not finite, else the
+        largest, over all ranks ("" where there is none)."""
         sim = self.sim
         n = sim.num_owned
-        v = sim.fields["Velocity"][:n]
-        where = ""
-        speed = -1.0
-        if n:
-            bad = ~np.isfinite(v).all(axis=1)
-            k = int(np.argmax(bad)) if bad.any() else int(np.argmax(np.einsum("ij,ij->i", v, v)))
-            speed = math.inf if bad.any() else float(np.dot(v[k], v[k]))
+        where, size = "", -1.0
+        if n and vectors is not None:
+            mag = np.einsum("ij,ij->i", vectors[:n], vectors[:n])
+            mag = np.where(np.isfinite(mag), mag, np.inf)
+            k = int(np.argmax(mag))
+            size = float(mag[k])
             x = sim.fields["Model_Coordinates"][k]
             blk = sim.blocks[int(sim.block_index[k])].name
             where = f"point {int(sim.gid[k]) + 1} (block {blk}, x = {x[0]:.4g}, {x[1]:.4g}, {x[2]:.4g})"
         if sim.comm.size > 1:
-            speed, where = max(sim.comm.allgather((speed, where)), key=lambda c: c[0])
+            size, where = max(sim.comm.allgather((size, where)), key=lambda c: c[0])
         return where
+
+    def _worst_point(self) -> str:
+        """The point with a non-finite velocity, else the fastest one, over all ranks."""
+        return self._locate(self.sim.fields["Velocity"])
+
+    def _fastest_acceleration(self) -> str:
+        """The point of largest acceleration over all ranks (where the step is least resolved)."""
+        return self._locate(getattr(self.sim, "acceleration", None))
 
     def _advice(self) -> str:
         contact = getattr(self.sim, "contact", None)
@@ -419,22 +427,6 @@ class EnergyMonitor:
             f"the run went unstable at step {step} (t = {time:.6g}): its kinetic energy {self.kinetic:.4g} exceeds all the "
             f"energy the initial state and the loads supplied ({supply:.4g}), fastest at {where}; " + self._advice()
         )
-
-    def _fastest_acceleration(self) -> str:
-        """The point of largest acceleration over all ranks (where the step is least resolved)."""
-        sim = self.sim
-        n = sim.num_owned
-        a = getattr(sim, "acceleration", None)
-        if a is None or not n:
-            return self._worst_point()
-        mag = np.einsum("ij,ij->i", a[:n], a[:n])
-        k = int(np.argmax(np.where(np.isfinite(mag), mag, np.inf)))
-        x = sim.fields["Model_Coordinates"][k]
-        blk = sim.blocks[int(sim.block_index[k])].name
-        where = f"point {int(sim.gid[k]) + 1} (block {blk}, x = {x[0]:.4g}, {x[1]:.4g}, {x[2]:.4g})"
-        if sim.comm.size > 1:
-            _, where = max(sim.comm.allgather((float(mag[k]), where)), key=lambda c: c[0])
-        return where
 
     def _fail_growth(self, step: int, time: float, growth: float, steps: int | None = None) -> None:
         where = self._worst_point()
