@@ -13,7 +13,8 @@ weight q = 1 inside r_in, 0 outside r_out, linear in r between, so q_,b = -(r_b 
 in the ring. The displacement gradient is the peridynamic (nonlocal) gradient of the intact
 bonds, H = [sum_j (1-d_ij) (u_j - u_i) (x) xi V_j] [sum_j (1-d_ij) xi (x) xi V_j]^-1 (the
 correspondence shape-tensor gradient, Silling et al. 2007, J. Elasticity 88, eq. 21, with
-omega = 1), the stress the small-strain Hooke stress of the material's elastic constants, and
+omega = 1), the stress the small-strain Hooke stress of the material's elastic constants
+(``Material.elastic_moduli()``: any material whose constants are Hookean), and
 W = sigma : eps / 2. This is the "domain integral from the deformation gradient" of
 docs/fracture.md; with r_in a few horizons from the tip the ring stays in the region where the
 peridynamic field is close to the classical one.
@@ -101,25 +102,15 @@ def hooke(H: np.ndarray, E: float, nu: float, mode: str) -> tuple[np.ndarray, np
 
 
 def elastic_constants(material) -> tuple[float, float, str]:
-    """(E, nu, mode) of the small-strain Hooke law equivalent to a block's material."""
-    kind = getattr(material, "name", type(material).__name__)
-    p = material.params
-    if kind == "Elastic Bond Based":
-        K = float(material.K)
-        if p.plane_stress:  # K = E / (2 (1 - nu)), nu = 1/3
-            return 2.0 * K * (1.0 - 1.0 / 3.0), 1.0 / 3.0, "plane stress"
-        if p.plane_strain:  # K = E / (2 (1 + nu)(1 - 2 nu)), nu = 1/4
-            return 2.0 * K * 1.25 * 0.5, 0.25, "plane strain"
-        return 3.0 * K * 0.5, 0.25, "3d"
-    if kind == "Elastic":
-        K, mu = float(material.K), float(material.mu)
-        if p.plane_stress:  # K = E / (2 (1 - nu)), mu = E / (2 (1 + nu))
-            return 4.0 * K * mu / (K + mu), (K - mu) / (K + mu), "plane stress"
-        if p.plane_strain:  # K = lambda + mu
-            lam = K - mu
-            return mu * (3 * lam + 2 * mu) / (lam + mu), lam / (2 * (lam + mu)), "plane strain"
-        return 9.0 * K * mu / (3.0 * K + mu), (3.0 * K - 2.0 * mu) / (2.0 * (3.0 * K + mu)), "3d"
-    raise ValueError(f"J_Integral supports blocks of 'Elastic Bond Based' and 'Elastic', not {kind!r}")
+    """(E, nu, mode) of the small-strain Hooke law equivalent to a block's material, from its
+    ``elastic_moduli()`` (any material, built-in or plugin, whose constants are Hookean)."""
+    moduli = material.elastic_moduli()
+    if moduli is None or not moduli.hookean:
+        why = "gives no elastic constants" if moduli is None else "is not linear elastic (ElasticModuli.hookean is false)"
+        raise ValueError(f"J_Integral supports blocks of linear elastic materials (Material.elastic_moduli() with hookean "
+                         f"constants, e.g. 'Elastic', 'Elastic Bond Based'); {material.name!r} {why}")
+    E, nu = moduli.youngs_and_poisson()
+    return E, nu, moduli.planar
 
 
 def _unit(v, what: str) -> np.ndarray:

@@ -237,7 +237,7 @@ class ContactManager:
     def stiffness_ratio(self) -> float:
         """Spring Constant over the smallest bulk modulus of the blocks."""
         k = float(getattr(self.model.params, "spring_constant", math.nan))
-        moduli = [float(blk.material.bulk_modulus) for blk in self.sim.blocks if getattr(blk.material, "bulk_modulus", 0) > 0]
+        moduli = [float(blk.material.bulk_modulus) for blk in self.sim.blocks if blk.material.bulk_modulus > 0]
         return k / min(moduli) if moduli else math.nan
 
     def diagnosis(self, dt: float) -> str:

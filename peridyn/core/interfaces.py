@@ -12,7 +12,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, ClassVar, Protocol
+from typing import Any, ClassVar, Literal, Protocol
 
 import numpy as np
 
@@ -93,6 +93,52 @@ class BlockView:
 # ------------------------------------------------------------------------------------------------
 # Materials
 # ------------------------------------------------------------------------------------------------
+#: how a material hands its bond forces to the engine (``Material.force_state_kind``)
+ForceStateKind = Literal["scalar", "vector"]
+#: which degrees of freedom the tangent of a point's bonds couples (``Material.tangent_coupling``)
+TangentCoupling = Literal["family", "pairs"]
+#: the stored-energy form of a material's bonds (``Material.bond_energy``)
+BondEnergy = Literal["pair", "lps"]
+#: how a material treats the model's dimension (``ElasticModuli.planar``)
+Planar = Literal["3d", "plane strain", "plane stress"]
+
+
+@dataclass(frozen=True)
+class ElasticModuli:
+    """The small-strain linear elastic constants of a material (``Material.elastic_moduli``),
+    what models that need a material's stiffness read (``Critical Energy``, ``J_Integral``)
+    instead of the material's own attributes. Moduli in M L^-1 T^-2 (Pa in SI).
+
+    ``bulk`` is the bulk modulus K the material's force law uses: in a planar model
+    (``planar`` not "3d") the in-plane (2D) bulk modulus, lambda + mu in plane strain and
+    E / (2 (1 - nu)) in plane stress, as Peridigm's conversion of E and nu gives it.
+    ``shear`` is the shear modulus mu (bond-based materials: the value their fixed Poisson's
+    ratio implies, 3/5 K in 3D and K/2 in 2D). ``hookean`` is True when these constants alone
+    give the material's small-strain stress, sigma = lambda tr(eps) I + 2 mu eps; False when
+    they are the elastic part of a response that also depends on internal state or other fields
+    (plasticity, viscoelasticity, fluid pressure). ``thickness`` (L) is the thickness (Height) of
+    a planar model whose force law depends on it, else None; ``micromodulus`` is the pair
+    stiffness c of a bond-based material (3D: M L^-5 T^-2; planar: per thickness), else None.
+    """
+
+    bulk: float
+    shear: float
+    planar: Planar = "3d"
+    hookean: bool = True
+    thickness: float | None = None
+    micromodulus: float | None = None
+
+    def youngs_and_poisson(self) -> tuple[float, float]:
+        """(E, nu) of the Hooke law with these constants in the model's dimension (``planar``)."""
+        K, mu = float(self.bulk), float(self.shear)
+        if self.planar == "plane stress":  # K = E / (2 (1 - nu)), mu = E / (2 (1 + nu))
+            return 4.0 * K * mu / (K + mu), (K - mu) / (K + mu)
+        if self.planar == "plane strain":  # K = lambda + mu
+            lam = K - mu
+            return mu * (3 * lam + 2 * mu) / (lam + mu), lam / (2 * (lam + mu))
+        return 9.0 * K * mu / (3.0 * K + mu), (3.0 * K - 2.0 * mu) / (2.0 * (3.0 * K + mu))
+
+
 class Material(ABC):
     """A constitutive model for the bonds of one block.
 
@@ -106,12 +152,37 @@ class Material(ABC):
     force per volume squared (M L^-5 T^-2 in SI: N/m^6), acting along the deformed bond
     direction (y_j - y_i)/|y_j - y_i|. The engine then gathers, for every point,
     ``f_i = sum_j (t_ij + t_ji) e_ij V_j`` (DESIGN.md decision 6).
+
+    Capabilities are declared here, as class attributes every material has (the engine,
+    solvers, damage models and computes read them plainly, never a model's ``name``):
+    ``force_state_kind``, ``tangent_coupling``, ``tangent_perturbs_velocity``,
+    ``requires_constant_horizon``, ``multiphysics``, ``bond_energy``, ``precompute_fields``,
+    ``ghost_inputs``, ``row_local``; and elastic constants come from ``elastic_moduli()``.
     """
 
     name: ClassVar[str]
     Params: ClassVar[type[ModelParams]]
-    #: "scalar": central force states in a per-bond scalar (see class docstring)
-    force_state_kind: ClassVar[str] = "scalar"
+    #: "scalar": central force states in a per-bond scalar (see above); "vector": the force
+    #: state T_i<xi> of bond b = i->j as a vector ``T[b]`` (shape (num_bonds, 3), M L^-5 T^-2,
+    #: non-ordinary models such as correspondence), gathered as f_i = sum_j (T_ij - T_ji) V_j
+    force_state_kind: ClassVar[ForceStateKind] = "scalar"
+    #: the force state depends on the velocities (rate-form models: hypoelastic and classic
+    #: correspondence read a velocity gradient): the finite-difference tangent then moves a
+    #: point's velocity by probe/dt together with its position, as Peridigm's probe does, and
+    #: stiffness estimates probe at the solver's time step
+    tangent_perturbs_velocity: ClassVar[bool] = False
+    #: the material needs one horizon per block (a number) when the influence function is not
+    #: the constant one; False when it reads the per-point ``Horizon`` field (horizon expressions)
+    requires_constant_horizon: ClassVar[bool] = True
+    #: the material carries the fluid pressure as a fourth degree of freedom per point
+    #: (Peridigm's Multiphysics materials): a deck with top-level ``Multiphysics: 1`` needs such
+    #: a material in every block, and such a material needs that flag
+    multiphysics: ClassVar[bool] = False
+    #: the energy a bond stores, for models that turn a fracture energy into a bond rule
+    #: (``Critical Energy``): "pair" (bond-based micropotential w = c s^2 |xi| / 2 per pair, c =
+    #: ``elastic_moduli().micromodulus``), "lps" (the linear peridynamic solid, W = K theta^2 / 2
+    #: + (15 mu / 2m) sum_j omega (e^d)^2 V_j with K, mu of ``elastic_moduli()``), or None (other)
+    bond_energy: ClassVar[BondEnergy | None] = None
     #: point fields ``precompute`` writes that the other end of a bond reads (under MPI they are
     #: exchanged to ghosts after every precompute; other halo fields once, after initialize)
     precompute_fields: ClassVar[tuple[str, ...]] = ()
@@ -139,6 +210,12 @@ class Material(ABC):
     @abstractmethod
     def bulk_modulus(self) -> float:
         """Bulk modulus K used by the critical time step estimate (M L^-1 T^-2)."""
+
+    def elastic_moduli(self) -> ElasticModuli | None:
+        """The material's small-strain linear elastic constants (see :class:`ElasticModuli`),
+        or None for a material without them (default). Models that need a material's
+        stiffness ask this method, never the material's name or attributes."""
+        return None
 
     def fields(self) -> list[FieldSpec]:
         """Fields this material reads and writes beyond the ones every run has."""
@@ -183,7 +260,7 @@ class Material(ABC):
 
     #: which degrees of freedom the tangent of a point's bonds couples: "family" (every pair of
     #: {i} U N_i, e.g. state-based models) or "pairs" (bonded pairs only, bond-based models)
-    tangent_coupling: ClassVar[str] = "family"
+    tangent_coupling: ClassVar[TangentCoupling] = "family"
 
     def tangent(self, block: BlockView, target: Any) -> bool:
         """Add the tangent d(f V)/dy (force per length) of the block's points' bonds to the

@@ -10,13 +10,17 @@ to break, at stretch s0, every bond that crosses a unit area of a plane,
 
 evaluated per material:
 
-* ``Elastic Bond Based`` (micropotential w = c s^2 |xi| / 2 per pair):
+The material is asked, not named: its ``bond_energy`` capability says which energy its bonds
+store and ``elastic_moduli()`` gives the constants (peridyn.core.interfaces.Material), so a
+plugin material that declares them is converted like the built-in one.
+
+* ``bond_energy = "pair"``, e.g. ``Elastic Bond Based`` (micropotential w = c s^2 |xi| / 2 per pair):
     3D:               G0 = pi c s0^2 delta^5 / 10     -> s0 = sqrt(5 G0 / (9 K delta))
     2D (thickness h): G0 = c h s0^2 delta^4 / 4       -> plane stress s0 = sqrt(4 pi G0 / (9 E delta)),
                                                           plane strain s0 = sqrt(5 pi G0 / (12 E delta))
   (the 2D forms are Ha & Bobaru 2010, Int. J. Fract. 162, eq. 4); this is exactly "break a bond
   when its stored energy c s^2 |xi| / 2 exceeds the critical bond energy w0(xi) = c s0^2 |xi| / 2".
-* ``Elastic`` (LPS, 3D): the same argument applied to the LPS energy written as
+* ``bond_energy = "lps"``, e.g. ``Elastic`` (LPS, 3D): the same argument applied to the LPS energy written as
   W = (K - 5 mu/3) theta^2 / 2 + (15 mu / 2m) sum_j omega e^2 V_j, with the bonds crossing the
   plane at stretch s0 and theta from those bonds only, as Madenci & Oterkus (2014, "Peridynamic
   Theory and Its Applications", Springer, §4.? critical stretch of the ordinary state-based
@@ -128,22 +132,30 @@ class CriticalEnergy(CriticalStretch):
         self._lps: tuple[float, float, float] | None = None  # (K, mu, delta) until the influence function is known
 
     def bind_material(self, material) -> None:
-        kind = getattr(material, "name", type(material).__name__)
         delta = material.horizon
         if delta is None or not math.isfinite(delta):
             raise ValueError("Critical Energy needs a constant horizon (give Horizon as a number)")
-        if kind == "Elastic Bond Based":
-            p = material.params
-            self.s_c = bond_based_critical_stretch(self.G0, material.c, delta, p.height if p.two_dimensional else None)
-        elif kind == "Elastic":
-            p = material.params
-            if p.plane_strain or p.plane_stress:
-                raise ValueError("Critical Energy: the conversion for 'Elastic' is three-dimensional; 'Plane Strain'/'Plane Stress' are not supported")
-            self._lps = (float(material.K), float(material.mu), float(delta))
+        moduli = material.elastic_moduli()
+        form = material.bond_energy
+        if form == "pair" and moduli is not None and moduli.micromodulus is not None:
+            height = None if moduli.planar == "3d" else moduli.thickness
+            if moduli.planar != "3d" and height is None:
+                raise ValueError(f"Critical Energy: the planar material {material.name!r} gives no thickness (ElasticModuli.thickness)")
+            self.s_c = bond_based_critical_stretch(self.G0, moduli.micromodulus, delta, height)
+        elif form == "lps" and moduli is not None:
+            if moduli.planar != "3d":
+                raise ValueError(f"Critical Energy: the conversion for the LPS energy ({material.name!r}) is three-dimensional; "
+                                 "'Plane Strain'/'Plane Stress' are not supported")
+            K, mu = float(moduli.bulk), float(moduli.shear)
+            self._lps = (K, mu, float(delta))
             # placeholder until initialize knows the influence function (omega = 1, Peridigm's default)
-            self.s_c = lps_critical_stretch(self.G0, material.K, material.mu, delta, 25.0 / 8.0, _B_ONE)
+            self.s_c = lps_critical_stretch(self.G0, K, mu, delta, 25.0 / 8.0, _B_ONE)
         else:
-            raise ValueError(f"Critical Energy supports the materials 'Elastic Bond Based' and 'Elastic', not {kind!r}")
+            raise ValueError(
+                f"Critical Energy supports the materials whose bonds store the bond-based pair energy or the LPS energy "
+                f"(Material.bond_energy 'pair' or 'lps', with elastic_moduli()), such as 'Elastic Bond Based' and 'Elastic', "
+                f"not {material.name!r}"
+            )
 
     def initialize(self, block: BlockView) -> None:
         super().initialize(block)

@@ -437,17 +437,18 @@ def parse_deck(source, registry: Registry | None = None) -> Deck:
 
 def _parse_multiphysics(tree, materials, err) -> bool:
     """Top-level ``Multiphysics`` (Peridigm: the number of extra dofs, which must be 1); then
-    every material must be a Multiphysics one, and a Multiphysics material needs the flag."""
+    every material must be a multiphysics one (its class declares ``multiphysics = True``), and
+    a multiphysics material needs the flag."""
     on = "Multiphysics" in tree
     if on:
         value = tree["Multiphysics"]
         if isinstance(value, bool) or not isinstance(value, int) or value != 1:
             err(f"'Multiphysics' must be 1 (one fluid pressure dof per point), got {value!r}", ("Multiphysics",), "set 'Multiphysics: 1' or remove it")
-    for entry in materials.values():
-        if on and "Multiphysics" not in entry.model:
+    for entry in materials.values():  # the material class declares it (Material.multiphysics)
+        if on and not entry.cls.multiphysics:
             err(f"material model {entry.model!r} is not multiphysics compatible, and the deck sets 'Multiphysics'", entry.path,
-                "use a material whose model name contains 'Multiphysics' (e.g. 'Multiphysics Elastic') in every block")
-        elif not on and "Multiphysics" in entry.model:
+                "use a multiphysics material (e.g. 'Multiphysics Elastic') in every block")
+        elif not on and entry.cls.multiphysics:
             err(f"material model {entry.model!r} needs multiphysics enabled at the top level of the deck", entry.path, "add 'Multiphysics: 1' at the top level")
     return on
 

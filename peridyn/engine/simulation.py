@@ -333,7 +333,7 @@ class Simulation:
                 except (ValueError, InputError) as exc:
                     errors.append(exc if isinstance(exc, InputError) else InputError(str(exc), file=deck.file, path=dentry.path))
                     continue
-            if horizon is None and getattr(material, "requires_constant_horizon", True) and self.influence.kind != 0:
+            if horizon is None and material.requires_constant_horizon and self.influence.kind != 0:
                 errors.append(
                     InputError(
                         f"material {mentry.model!r} with influence function {self.influence.spec!r} needs a constant horizon",

@@ -40,10 +40,10 @@ from pydantic import Field, model_validator
 
 from ..core.fields import FieldSpec, Relation, Temporal
 from ..core.influence import omega
-from ..core.interfaces import BlockView, Material
+from ..core.interfaces import BlockView, ElasticModuli, Material
 from ..core.params import UsedWhen
 from .elastic import weighted_volume_kernel
-from .moduli import IsotropicElasticParams
+from .moduli import IsotropicElasticParams, isotropic_moduli
 
 EMPTY = np.zeros(0)
 PERFECT, HARDENING, VISCO = 0, 1, 2  # model switch of the finite-difference tangent
@@ -402,6 +402,10 @@ class DeviatoricStateMaterial(Material):
     @property
     def bulk_modulus(self) -> float:
         return float(self.K)
+
+    def elastic_moduli(self) -> ElasticModuli:
+        """The elastic part (not Hookean: plastic or viscous deviatoric response)."""
+        return isotropic_moduli(self.params, self.K, self.mu, hookean=False)
 
     def fields(self) -> list[FieldSpec]:
         return [

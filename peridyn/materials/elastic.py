@@ -25,9 +25,9 @@ from pydantic import Field
 from ..core.bondmath import stretch_exceeds
 from ..core.fields import FieldSpec, Relation, Temporal
 from ..core.influence import omega
-from ..core.interfaces import BlockView, Material
+from ..core.interfaces import BlockView, ElasticModuli, Material
 from ..core.params import UsedWhen
-from .moduli import IsotropicElasticParams
+from .moduli import IsotropicElasticParams, isotropic_moduli
 
 EMPTY = np.zeros(0)
 EMPTY_INDEX = np.zeros(0, dtype=np.int32)  # no reverse lookup: symmetric damage
@@ -405,6 +405,7 @@ class Elastic(Material):
     Params = ElasticParams
     precompute_fields = ("Dilatation",)
     row_local = True
+    bond_energy = "lps"
 
     def __init__(self, params: ElasticParams, *, horizon: float | None, options=None) -> None:
         super().__init__(params, horizon=horizon, options=options)
@@ -424,6 +425,9 @@ class Elastic(Material):
     @property
     def bulk_modulus(self) -> float:
         return self.K
+
+    def elastic_moduli(self) -> ElasticModuli:
+        return isotropic_moduli(self.params, self.K, self.mu, hookean=True)
 
     @property
     def thermal(self) -> bool:

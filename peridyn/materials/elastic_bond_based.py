@@ -21,7 +21,7 @@ from numba import njit, prange
 from pydantic import Field, model_validator
 
 from ..core.fields import FieldSpec
-from ..core.interfaces import BlockView, Material
+from ..core.interfaces import BlockView, ElasticModuli, Material
 from ..core.params import ModelParams, UsedWhen
 from .moduli import bulk_and_shear
 
@@ -134,6 +134,7 @@ class ElasticBondBased(Material):
     name = "Elastic Bond Based"
     Params = ElasticBondBasedParams
     row_local = True
+    bond_energy = "pair"
 
     def __init__(self, params: ElasticBondBasedParams, *, horizon: float | None, options=None) -> None:
         super().__init__(params, horizon=horizon, options=options)
@@ -153,6 +154,15 @@ class ElasticBondBased(Material):
     @property
     def bulk_modulus(self) -> float:
         return self.K
+
+    def elastic_moduli(self) -> ElasticModuli:
+        """K, the shear modulus of the fixed Poisson's ratio (nu = 1/4 in 3D and plane strain,
+        1/3 in plane stress: mu = 3/5 K in 3D, K/2 in 2D), the micromodulus c and the Height."""
+        p = self.params
+        if p.two_dimensional:
+            planar = "plane stress" if p.plane_stress else "plane strain"
+            return ElasticModuli(self.K, 0.5 * self.K, planar, thickness=p.height, micromodulus=self.c)
+        return ElasticModuli(self.K, 0.6 * self.K, "3d", micromodulus=self.c)
 
     def fields(self) -> list[FieldSpec]:
         return []

@@ -39,10 +39,10 @@ from pydantic import Field, model_validator
 from ..core.errors import InputError
 from ..core.fields import FieldSpec, Relation, Temporal
 from ..core.influence import omega
-from ..core.interfaces import BlockView, Material
+from ..core.interfaces import BlockView, ElasticModuli, Material
 from ..core.params import UsedWhen
 from .elastic import Elastic, ElasticParams
-from .moduli import IsotropicElasticParams
+from .moduli import IsotropicElasticParams, isotropic_moduli
 
 EMPTY = np.zeros(0)
 EMPTY_INDEX = np.zeros(0, dtype=np.int32)
@@ -218,6 +218,9 @@ class LinearLPSPartialVolume(Material):
     @property
     def bulk_modulus(self) -> float:
         return self.K
+
+    def elastic_moduli(self) -> ElasticModuli:
+        return isotropic_moduli(self.params, self.K, self.mu, hookean=True)
 
     @property
     def partial(self) -> bool:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pydantic import Field, model_validator
 
+from ..core.interfaces import ElasticModuli
 from ..core.params import STRESS_RATIO_LIMIT, ModelParams, ParamKeyError
 
 
@@ -97,3 +98,10 @@ class IsotropicElasticParams(ModelParams):
             plane_strain=self.plane_strain,
             plane_stress=self.plane_stress,
         )
+
+
+def isotropic_moduli(params: IsotropicElasticParams, K: float, mu: float, *, hookean: bool) -> ElasticModuli:
+    """``Material.elastic_moduli`` of a material with :class:`IsotropicElasticParams`: (K, mu)
+    as the material computed them, planar as its Plane Strain / Plane Stress flags say."""
+    planar = "plane strain" if params.plane_strain else "plane stress" if params.plane_stress else "3d"
+    return ElasticModuli(float(K), float(mu), planar, hookean=hookean)

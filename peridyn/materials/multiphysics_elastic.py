@@ -35,9 +35,9 @@ from pydantic import Field, field_validator
 from ..core.errors import InputError
 from ..core.fields import FieldSpec, Relation
 from ..core.influence import omega
-from ..core.interfaces import BlockView, Material
+from ..core.interfaces import BlockView, ElasticModuli, Material
 from .elastic import EMPTY, dilatation_kernel, weighted_volume_kernel
-from .moduli import IsotropicElasticParams
+from .moduli import IsotropicElasticParams, isotropic_moduli
 
 #: the pressure fields (node scalars): current trial value, accumulated value, rate; flow density
 PRESSURE_FIELDS = ("Fluid_Pressure_Y", "Fluid_Pressure_U", "Fluid_Pressure_V", "Flux_Density")
@@ -205,6 +205,7 @@ class MultiphysicsElastic(Material):
     Params = MultiphysicsElasticParams
     precompute_fields = ("Dilatation",)
     ghost_inputs = ("Fluid_Pressure_Y",)
+    multiphysics = True
 
     def __init__(self, params: MultiphysicsElasticParams, *, horizon: float | None, options=None) -> None:
         super().__init__(params, horizon=horizon, options=options)
@@ -225,6 +226,10 @@ class MultiphysicsElastic(Material):
     @property
     def bulk_modulus(self) -> float:
         return self.K
+
+    def elastic_moduli(self) -> ElasticModuli:
+        """The solid's constants (not Hookean: the fluid pressure enters the stress)."""
+        return isotropic_moduli(self.params, self.K, self.mu, hookean=False)
 
     @property
     def thermal(self) -> bool:

@@ -35,9 +35,9 @@ from pydantic import Field, field_validator
 from ..core.errors import InputError
 from ..core.fields import FieldSpec, Relation, Temporal
 from ..core.influence import NAMED
-from ..core.interfaces import BlockView, Material
+from ..core.interfaces import BlockView, ElasticModuli, Material
 from . import pals_kernels as kern
-from .moduli import IsotropicElasticParams
+from .moduli import IsotropicElasticParams, isotropic_moduli
 
 EMPTY = np.zeros(0)
 MULTIPLIER_FIELDS = tuple(f"Lagrange_Multiplier_Dilatation_{k}" for k in range(1, 7)) + tuple(
@@ -92,6 +92,9 @@ class Pals(Material):
     @property
     def bulk_modulus(self) -> float:
         return float(self.K)
+
+    def elastic_moduli(self) -> ElasticModuli:
+        return isotropic_moduli(self.params, self.K, self.mu, hookean=True)
 
     def fields(self) -> list[FieldSpec]:
         return [

@@ -269,7 +269,7 @@ class TangentMatrix:
             self.indptr = np.arange(nrows + 1, dtype=np.int64)
             self.indices = np.arange(nrows, dtype=np.int32)
         else:
-            pairs_only = all(getattr(blk.material, "tangent_coupling", "family") == "pairs" for blk in sim.blocks)
+            pairs_only = all(blk.material.tangent_coupling == "pairs" for blk in sim.blocks)
             self.indptr, self.indices = self._pattern(pairs_only)
         self.data = np.zeros((self.indices.shape[0], 3, 3))
         rows = np.repeat(np.arange(nrows), np.diff(self.indptr))
@@ -401,7 +401,7 @@ class TangentMatrix:
                 self._fd_scratch = np.zeros(nl.num_bonds)
             t = self._fd_scratch
         # rate-form materials: Peridigm's probe moves the velocity by eps/dt with the position
-        v = s["Velocity"] if getattr(mat, "tangent_perturbs_velocity", False) else None
+        v = s["Velocity"] if mat.tangent_perturbs_velocity else None
         dv = eps / view.time_step if v is not None and view.time_step > 0 else 0.0
 
         def local(out):

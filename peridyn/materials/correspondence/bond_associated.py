@@ -29,9 +29,9 @@ from pydantic import Field, model_validator
 
 from ...core.errors import InstabilityError
 from ...core.fields import FieldSpec, Length, Relation, Temporal
-from ...core.interfaces import BlockView, Material
+from ...core.interfaces import BlockView, ElasticModuli, Material
 from ...core.params import ModelParams, ParamKeyError, UsedWhen
-from ..moduli import bulk_and_shear
+from ..moduli import bulk_and_shear, isotropic_moduli
 from . import bond_associated_kernels as kern
 from .params import CorrespondenceBaseParams
 
@@ -166,6 +166,10 @@ class BondAssociatedCorrespondence(Material):
     @property
     def bulk_modulus(self) -> float:
         return float(self.K)
+
+    def elastic_moduli(self) -> ElasticModuli:
+        """K and G (Hookean unless the model is plastic)."""
+        return isotropic_moduli(self.params, self.K, self.G, hookean=not self.plastic)
 
     def curve(self) -> tuple[int, float, float, float, float]:
         """(model code, p0, p1, p2, p3) of the stress update (see the kernels module)."""

@@ -20,8 +20,8 @@ from numba import njit, prange
 
 from ...core.errors import InstabilityError
 from ...core.fields import FieldSpec, Length, Relation, Temporal
-from ...core.interfaces import BlockView, Material
-from ..moduli import bulk_and_shear
+from ...core.interfaces import BlockView, ElasticModuli, Material
+from ..moduli import bulk_and_shear, isotropic_moduli
 from . import params as P
 from .forces import _force_state, _hourglass_bond, partial_stress_kernel
 from .kinematics import kinematics_kernel, shape_tensor_kernel
@@ -87,6 +87,10 @@ class ClassicCorrespondence(Material):
     @property
     def bulk_modulus(self) -> float:
         return float(self.K)
+
+    def elastic_moduli(self) -> ElasticModuli:
+        """K and G (Hookean unless the model is plastic)."""
+        return isotropic_moduli(self.params, self.K, self.G, hookean=not self.plastic)
 
     def fields(self) -> list[FieldSpec]:
         specs = [

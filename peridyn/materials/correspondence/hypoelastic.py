@@ -26,8 +26,8 @@ from pydantic import Field, field_validator, model_validator
 from ...core.errors import InputError
 from ...core.fields import FieldSpec, Length, Relation, Temporal
 from ...core.influence import TABLE
-from ...core.interfaces import BlockView, Material
-from ..moduli import bulk_and_shear
+from ...core.interfaces import BlockView, ElasticModuli, Material
+from ..moduli import bulk_and_shear, isotropic_moduli
 from . import hypoelastic_kernels as HK
 from .params import CorrespondenceBaseParams
 
@@ -117,6 +117,10 @@ class HypoelasticCorrespondence(Material):
     @property
     def bulk_modulus(self) -> float:
         return float(self.K)
+
+    def elastic_moduli(self) -> ElasticModuli:
+        """K and G (Hookean unless the model is plastic)."""
+        return isotropic_moduli(self.params, self.K, self.G, hookean=not self.plastic)
 
     @property
     def plastic(self) -> bool:

@@ -9,6 +9,7 @@ from numba import njit, prange
 from ...core.bondmath import gather_vector_force_kernel
 from ...core.fields import FieldSpec, Relation
 from ...core.interfaces import Compute
+from .classic import ClassicCorrespondence
 from .forces import _hourglass_bond
 
 
@@ -31,7 +32,7 @@ class HourglassForceDensity(Compute):
     def compute(self, sim):
         out = sim.fields["Hourglass_Force_Density"]
         out[:] = 0.0
-        blocks = [blk for blk in sim.blocks if getattr(blk.material, "c1", 0.0) != 0.0]
+        blocks = [blk for blk in sim.blocks if isinstance(blk.material, ClassicCorrespondence) and blk.material.c1 != 0.0]
         if not blocks:
             return
         s, nl = sim.fields, sim.bonds
