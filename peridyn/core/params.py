@@ -19,27 +19,27 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, model_validat
 DECK_CONTEXT = "deck"
 
 
-def _leaf_types(annotation: Any) -> set[Any]:
+def leaf_types(annotation: Any) -> set[Any]:
     """The scalar types an annotation accepts (``float | str`` -> {float, str}, list[float] -> {list})."""
     origin = typing.get_origin(annotation)
     if origin in (typing.Union, types.UnionType):
         out: set[Any] = set()
         for arg in typing.get_args(annotation):
-            out |= _leaf_types(arg)
+            out |= leaf_types(arg)
         return out
     if origin is typing.Literal:
         return {type(a) for a in typing.get_args(annotation)}
     if origin is typing.Annotated:
-        return _leaf_types(typing.get_args(annotation)[0])
+        return leaf_types(typing.get_args(annotation)[0])
     return {origin or annotation}
 
 
 def _numeric_only(annotation: Any) -> bool:
-    kinds = _leaf_types(annotation)
+    kinds = leaf_types(annotation)
     return bool(kinds & {float, int}) and bool not in kinds
 
 
-def _bool_for_number(annotation: Any, value: Any) -> bool:
+def bool_for_number(annotation: Any, value: Any) -> bool:
     """A boolean where the annotation wants a number (also inside a list of numbers)."""
     if isinstance(value, bool):
         return _numeric_only(annotation) or _numeric_list(annotation)
@@ -56,11 +56,11 @@ def _numeric_list(annotation: Any) -> bool:
     return False
 
 
-def _non_finite(value: Any) -> bool:
+def non_finite(value: Any) -> bool:
     if isinstance(value, float):
         return not math.isfinite(value)
     if isinstance(value, (list, tuple)):
-        return any(_non_finite(v) for v in value)
+        return any(non_finite(v) for v in value)
     return False
 
 
@@ -178,9 +178,9 @@ class ModelParams(BaseModel):
             if alias not in data:
                 continue
             value = data[alias]
-            if _bool_for_number(f.annotation, value):
+            if bool_for_number(f.annotation, value):
                 problems.append(f"{alias!r} must be a number, got the boolean {str(value).lower()}")
-            elif _non_finite(value):
+            elif non_finite(value):
                 problems.append(f"{alias!r} must be finite, got {value!r}")
         if problems:
             raise ValueError("; ".join(problems))
@@ -207,7 +207,7 @@ IGNORED_KEY_TYPES: dict[str, Any] = {
 }
 
 
-def _reading_field(key: str) -> Any | None:
+def reading_field(key: str) -> Any | None:
     """The annotation (with its constraints) of ``key`` in a loaded model that reads it."""
     stack = list(ModelParams.__subclasses__())
     while stack:
@@ -218,32 +218,6 @@ def _reading_field(key: str) -> Any | None:
         for name, f in cls.model_fields.items():
             if (f.alias or name) == key:
                 return typing.Annotated[f.annotation, *f.metadata] if f.metadata else f.annotation
-    return None
-
-
-def ignored_value_problem(key: str, value: Any) -> str | None:
-    """Why the value of an ignored deck key is bad input (None when it is fine): ignored keys are
-    not read, but a non-finite number, a wrong type or a value outside the key's range where a
-    model reads it is a mistake in the deck all the same."""
-    from pydantic import TypeAdapter, ValidationError
-
-    annotation = IGNORED_KEY_TYPES.get(key) or _reading_field(key)
-    if _non_finite(value):
-        return f"{key!r} must be finite, got {value!r} (the key is ignored here, but its value is still checked)"
-    if annotation is None:
-        return None
-    if _bool_for_number(annotation, value):
-        return f"{key!r} must be a number, got the boolean {str(value).lower()} (the key is ignored here, but its value is still checked)"
-    if bool in _leaf_types(annotation) and not isinstance(value, bool):
-        return f"{key!r} must be true or false, got {value!r} (the key is ignored here, but its value is still checked)"
-    try:
-        TypeAdapter(annotation).validate_python(value)
-    except ValidationError as exc:
-        from ..deck.validation import explain  # noqa: PLC0415 (deck imports core, not back)
-
-        err = exc.errors(include_url=False)[0]
-        problem, _ = explain(err["type"], err.get("ctx") or {}, err.get("input"), str(err["msg"]))
-        return f"{key!r} {problem} (the key is ignored here, but its value is still checked)"
     return None
 
 

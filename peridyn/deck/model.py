@@ -21,10 +21,10 @@ from typing import Any
 from pydantic import Field, field_validator
 
 from ..core.errors import InputError, raise_collected
-from ..core.params import ModelParams, ignored_value_problem
+from ..core.params import ModelParams
 from ..plugins.manager import Registry, get_registry
 from .source import SECTION_NAMES
-from .validation import validate_params
+from .validation import ignored_value_problem, validate_params
 
 log = logging.getLogger("peridyn.deck")
 

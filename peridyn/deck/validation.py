@@ -9,7 +9,7 @@ from typing import Any, TypeVar
 from pydantic import BaseModel, ValidationError
 
 from ..core.errors import InputError
-from ..core.params import DECK_CONTEXT, ignored_value_problem
+from ..core.params import DECK_CONTEXT, IGNORED_KEY_TYPES, bool_for_number, leaf_types, non_finite, reading_field
 
 log = logging.getLogger("peridyn.deck")
 
@@ -147,3 +147,27 @@ def validate_params(
     except ValidationError as exc:
         errors.extend(convert_errors(exc, model, path=path, file=file, lines=lines))
         return None
+
+
+def ignored_value_problem(key: str, value: Any) -> str | None:
+    """Why the value of an ignored deck key is bad input (None when it is fine): ignored keys are
+    not read, but a non-finite number, a wrong type or a value outside the key's range where a
+    model reads it is a mistake in the deck all the same."""
+    from pydantic import TypeAdapter, ValidationError
+
+    annotation = IGNORED_KEY_TYPES.get(key) or reading_field(key)
+    if non_finite(value):
+        return f"{key!r} must be finite, got {value!r} (the key is ignored here, but its value is still checked)"
+    if annotation is None:
+        return None
+    if bool_for_number(annotation, value):
+        return f"{key!r} must be a number, got the boolean {str(value).lower()} (the key is ignored here, but its value is still checked)"
+    if bool in leaf_types(annotation) and not isinstance(value, bool):
+        return f"{key!r} must be true or false, got {value!r} (the key is ignored here, but its value is still checked)"
+    try:
+        TypeAdapter(annotation).validate_python(value)
+    except ValidationError as exc:
+        err = exc.errors(include_url=False)[0]
+        problem, _ = explain(err["type"], err.get("ctx") or {}, err.get("input"), str(err["msg"]))
+        return f"{key!r} {problem} (the key is ignored here, but its value is still checked)"
+    return None

@@ -167,7 +167,7 @@ class EnergyMonitor:
             self.max_scale = max(self.max_scale, abs(self.stored0))
         #: energy of a strain of 1e-6 everywhere: below it, ratios of energies are round-off
         volume = sim.comm.allreduce_sum(float(np.sum(sim.fields["Volume"][:n])))
-        stiffest = max((float(getattr(blk.material, "bulk_modulus", 0.0) or 0.0) for blk in sim.blocks), default=0.0)
+        stiffest = max((float(blk.material.bulk_modulus) for blk in sim.blocks), default=0.0)
         self.floor = 1e-12 * volume * stiffest if math.isfinite(volume * stiffest) else 0.0
         #: the ratio rules need the energy at the start; where no material reports it and the
         #: body starts loaded (step-0 forces), it is bounded below only by what the run releases,

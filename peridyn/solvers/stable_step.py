@@ -33,7 +33,7 @@ def measured_stable_step(sim, dt: float, *, iterations: int = 40, stop_below: fl
     if comm.allreduce_sum(int(free.sum())) == 0:
         return math.inf, 0
     x, u, y, vel = f["Model_Coordinates"], f["Displacement"], f["Coordinates"], f["Velocity"]
-    rate = any(getattr(blk.material, "tangent_perturbs_velocity", False) for blk in sim.blocks)
+    rate = any(blk.material.tangent_perturbs_velocity for blk in sim.blocks)
     saved = f.snapshot()
     saved_dt = getattr(sim, "time_step", None)
     if rate:
