@@ -45,3 +45,19 @@ def gather_vector_force_kernel(start, stop, offsets, neighbors, in_offsets, in_b
         f[i, 0] += fx
         f[i, 1] += fy
         f[i, 2] += fz
+
+
+@njit(cache=True, parallel=True)
+def gather_bond_scalar_kernel(lo, hi, offsets, neighbors, in_offsets, in_bonds, sources, volume, q, flow):
+    """flow_i = sum_{b = i->j} q_b V_j - sum_{b = j->i} q_b V_j for the rows [lo, hi) (owned
+    rows, or under MPI the ghost rows, whose sums go back to their owners): a gather of a
+    per-bond scalar q (nb,), added at the bond's owner and subtracted at its other end, e.g. the fluid flow of multiphysics
+    materials (``Material.flow_bond_field``) into Flux_Density. Shapes: volume, flow (n,)."""
+    for i in prange(lo, hi):
+        acc = 0.0
+        for b in range(offsets[i], offsets[i + 1]):
+            acc += q[b] * volume[neighbors[b]]
+        for k in range(in_offsets[i], in_offsets[i + 1]):
+            b = in_bonds[k]
+            acc -= q[b] * volume[sources[b]]
+        flow[i] = acc

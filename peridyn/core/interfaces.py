@@ -156,7 +156,7 @@ class Material(ABC):
     Capabilities are declared here, as class attributes every material has (the engine,
     solvers, damage models and computes read them plainly, never a model's ``name``):
     ``force_state_kind``, ``tangent_coupling``, ``tangent_perturbs_velocity``,
-    ``requires_constant_horizon``, ``multiphysics``, ``bond_energy``, ``precompute_fields``,
+    ``requires_constant_horizon``, ``multiphysics``, ``flow_bond_field``, ``bond_energy``, ``precompute_fields``,
     ``ghost_inputs``, ``row_local``; and elastic constants come from ``elastic_moduli()``.
     """
 
@@ -178,6 +178,11 @@ class Material(ABC):
     #: (Peridigm's Multiphysics materials): a deck with top-level ``Multiphysics: 1`` needs such
     #: a material in every block, and such a material needs that flag
     multiphysics: ClassVar[bool] = False
+    #: a multiphysics material's bond field (``Relation.BOND``, one of its ``fields()``) where
+    #: ``force_state`` writes the fluid flow q_b of each of its bonds b = i->j (pressure per time
+    #: per volume squared); the coupled solver gathers it into ``Flux_Density`` as
+    #: flow_i = sum_(b out of i) q_b V_j - sum_(b into i) q_b V_src(b). None: no fluid flow
+    flow_bond_field: ClassVar[str | None] = None
     #: the energy a bond stores, for models that turn a fracture energy into a bond rule
     #: (``Critical Energy``): "pair" (bond-based micropotential w = c s^2 |xi| / 2 per pair, c =
     #: ``elastic_moduli().micromodulus``), "lps" (the linear peridynamic solid, W = K theta^2 / 2
@@ -264,7 +269,7 @@ class Material(ABC):
 
     def tangent(self, block: BlockView, target: Any) -> bool:
         """Add the tangent d(f V)/dy (force per length) of the block's points' bonds to the
-        implicit solvers' matrix ``target`` (a :class:`peridyn.solvers.tangent.TangentTarget`:
+        implicit solvers' matrix ``target`` (a :class:`peridyn.solvers.linalg.tangent.TangentTarget`:
         3x3-block sparse rows in global-id order, see :mod:`peridyn.materials.tangents`) and
         return True; fields are as left by ``precompute`` at the current configuration.
 

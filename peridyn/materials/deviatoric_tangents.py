@@ -4,7 +4,7 @@ the plastic force (Peridigm's automatic-differentiation tangent up to round-off)
 
 Both build, for every point i of a block (in Peridigm's evaluation order ``pts``), the dense local
 block of point i's bond forces over S_i = [N_i..., i] and add it into the BSR matrix with
-:func:`peridyn.materials.tangents.scatter_local_kernel`. Points are processed in batches: the
+:func:`peridyn.core.assembly.scatter_local_kernel`. Points are processed in batches: the
 local blocks of a batch are computed in parallel (``prange``, each point only reading shared
 arrays; a finite-difference probe moves a private copy of its family's positions), then added
 serially in ``pts`` order, so the matrix is the same for any thread count, and the same as a
@@ -28,7 +28,7 @@ from .deviatoric import (
     point_theta,
     visco_bonds,
 )
-from .tangents import local_scalar_state_force_kernel, scatter_local_kernel
+from ..core.assembly import local_scalar_state_force_kernel, scatter_local_kernel
 
 
 @njit(cache=True, error_model="numpy")

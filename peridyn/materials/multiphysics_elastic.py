@@ -152,20 +152,6 @@ def flow_bond_kernel(start, stop, offsets, neighbors, y, p, bond_damage, dT, c_T
     return bad
 
 
-@njit(cache=True, parallel=True)
-def flow_gather_kernel(lo, hi, offsets, neighbors, in_offsets, in_bonds, sources, volume, q, flow):
-    """flow_i = sum_{b = i->j} q_b V_j - sum_{b = j->i} q_b V_j for the rows [lo, hi) (owned
-    rows, or under MPI the ghost rows, whose sums go back to their owners): a gather."""
-    for i in prange(lo, hi):
-        acc = 0.0
-        for b in range(offsets[i], offsets[i + 1]):
-            acc += q[b] * volume[neighbors[b]]
-        for k in range(in_offsets[i], in_offsets[i + 1]):
-            b = in_bonds[k]
-            acc -= q[b] * volume[sources[b]]
-        flow[i] = acc
-
-
 @njit(cache=True, parallel=True, error_model="numpy")
 def stored_energy_kernel(start, stop, offsets, neighbors, x, y, volume, m, theta, scf, K, mu, omega_kind, delta, omega_table, bond_damage, dT, alpha_T, W):
     """W_i = K theta^2 / 2 + (alpha / 2) sum_j (1-d) omega e_d^2 V_j, alpha = (15 mu / m) s
@@ -206,6 +192,7 @@ class MultiphysicsElastic(Material):
     precompute_fields = ("Dilatation",)
     ghost_inputs = ("Fluid_Pressure_Y",)
     multiphysics = True
+    flow_bond_field = FLOW_BOND_FIELD
 
     def __init__(self, params: MultiphysicsElasticParams, *, horizon: float | None, options=None) -> None:
         super().__init__(params, horizon=horizon, options=options)
@@ -340,7 +327,7 @@ class MultiphysicsElastic(Material):
 
     def coupled_tangent(self, block: BlockView, target) -> None:
         """Add d(f V, flow V)/d(y, p) of the block's points' bonds to the 4x4-block matrix
-        ``target`` (:class:`peridyn.solvers.coupled_tangent.CoupledTangentTarget`)."""
+        ``target`` (:class:`peridyn.solvers.linalg.coupled_tangent.CoupledTangentTarget`)."""
         from .multiphysics_kernels import coupled_tangent_kernel
 
         s, nl = block.fields, block.bonds

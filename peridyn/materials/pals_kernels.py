@@ -31,7 +31,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..core.influence import omega as omega_0
-from .tangents import local_scalar_state_force_kernel, scatter_local_kernel
+from ..core.assembly import local_scalar_state_force_kernel, scatter_local_kernel
 
 NUM_MULTIPLIERS = 6
 NO_TABLE = np.zeros(0)  # omega_0 is always a named function (never a per-bond table)

@@ -67,7 +67,7 @@ s's incoming bonds) in Peridigm's evaluation order (block, then global id), so t
 not depend on the thread count. A contribution to a column missing from the row's pattern is
 dropped (that is how a block-diagonal pattern, used by NOX preconditioners, is filled).
 
-Matrix layout (see :class:`peridyn.solvers.tangent.TangentMatrix`): block-sparse rows (BSR, 3x3
+Matrix layout (see :class:`peridyn.solvers.linalg.tangent.TangentMatrix`): block-sparse rows (BSR, 3x3
 blocks) in global-id order: ``indptr`` (nrows+1,), ``indices`` (nnzb,) int32 block columns in
 row numbering, ``data`` (nnzb, 3, 3) with ``data[p, d, c] = dF_(s,d) / dy_(k,c)``.
 """
@@ -346,88 +346,3 @@ def bond_based_tangent_kernel(
                             _add_pair(data, pi, 1.0, VV, alpha, beta, mx, my, mz)
             for p in range(indptr[r], indptr[r + 1]):
                 pos[local_of_row[indices[p]]] = -1
-
-
-@njit(cache=True)
-def local_vector_force_kernel(i, offsets, neighbors, volume, T, out):
-    """``local_force_kernel`` for vector force states T (nb, 3) of i's bonds: f_i = sum T_b V_j,
-    f_j = -T_b V_i on S_i = [N_i..., i]."""
-    o = offsets[i]
-    ns = offsets[i + 1] - o + 1
-    fx = 0.0
-    fy = 0.0
-    fz = 0.0
-    Vi = volume[i]
-    for b in range(o, offsets[i + 1]):
-        j = neighbors[b]
-        k = 3 * (b - o)
-        out[k] = -T[b, 0] * Vi
-        out[k + 1] = -T[b, 1] * Vi
-        out[k + 2] = -T[b, 2] * Vi
-        fx += T[b, 0] * volume[j]
-        fy += T[b, 1] * volume[j]
-        fz += T[b, 2] * volume[j]
-    k = 3 * (ns - 1)
-    out[k] = fx
-    out[k + 1] = fy
-    out[k + 2] = fz
-
-
-@njit(cache=True, error_model="numpy")
-def local_scalar_state_force_kernel(i, offsets, neighbors, y, volume, t, out):
-    """Force density of point i's bonds on S_i = [N_i..., i] (out (3 (|N_i| + 1),)) from the
-    local scalar force states t[b - offsets[i]] (zero-length bonds carry none): the
-    finite-difference probes of the deviatoric materials and of Pals."""
-    o = offsets[i]
-    ns = offsets[i + 1] - o + 1
-    for k in range(3 * ns):
-        out[k] = 0.0
-    fx = 0.0
-    fy = 0.0
-    fz = 0.0
-    Vi = volume[i]
-    for b in range(o, offsets[i + 1]):
-        j = neighbors[b]
-        ex = y[j, 0] - y[i, 0]
-        ey = y[j, 1] - y[i, 1]
-        ez = y[j, 2] - y[i, 2]
-        L = math.sqrt(ex * ex + ey * ey + ez * ez)
-        if L > 0.0:
-            s = t[b - o] / L
-            k = 3 * (b - o)
-            out[k] -= s * ex * Vi
-            out[k + 1] -= s * ey * Vi
-            out[k + 2] -= s * ez * Vi
-            fx += s * ex * volume[j]
-            fy += s * ey * volume[j]
-            fz += s * ez * volume[j]
-    k = 3 * (ns - 1)
-    out[k] = fx
-    out[k + 1] = fy
-    out[k + 2] = fz
-
-
-@njit(cache=True)
-def scatter_local_kernel(rows, Kloc, indptr, indices, data):
-    """data += a dense local matrix Kloc (3 ns, 3 ns) whose points are rows (ns,) (row numbers),
-    entries outside the pattern dropped. Serial (finite-difference path)."""
-    ns = rows.shape[0]
-    for a in range(ns):
-        r = rows[a]
-        lo = indptr[r]
-        hi = indptr[r + 1]
-        for b in range(ns):
-            col = rows[b]
-            # binary search of col in indices[lo:hi] (ascending)
-            left = lo
-            right = hi
-            while left < right:
-                mid = (left + right) // 2
-                if indices[mid] < col:
-                    left = mid + 1
-                else:
-                    right = mid
-            if left < hi and indices[left] == col:
-                for d in range(3):
-                    for c in range(3):
-                        data[left, d, c] += Kloc[3 * a + d, 3 * b + c]

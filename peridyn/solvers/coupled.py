@@ -10,7 +10,7 @@ PERIDIGM_SEMANTICS.md §11.2):
 * trial state y = (x + u) + du, v = du / dt and p_Y = p_U + dp (no reference value),
   p_V = dp / dt; the predictor, Newton update and line search act on all four dofs; at the end
   of a load step u += du, p_U += dp, predictor <- (v, p_V);
-* the tangent is the exact 4x4-block Jacobian (:mod:`peridyn.solvers.coupled_tangent`), with
+* the tangent is the exact 4x4-block Jacobian (:mod:`peridyn.solvers.linalg.coupled_tangent`), with
   rows and columns of prescribed dofs replaced as for displacements (D over all 4 N dofs);
 * the relative tolerance scales with the 4-dof reactions (f V, flow V on prescribed dofs);
 * Peridigm's line search, multiphysics branch, evaluates its first candidate list (the secant
@@ -28,13 +28,26 @@ import time as _time
 
 import numpy as np
 
+from ..core.bondmath import gather_bond_scalar_kernel
 from ..core.errors import InputError, InstabilityError
-from ..materials.multiphysics_elastic import FLOW_BOND_FIELD, flow_gather_kernel
-from .coupled_tangent import CoupledTangent
-from .linear import LinearSolver, norm_inf, seq_dot, seq_norm2
+from .linalg.coupled_tangent import CoupledTangent
+from .linalg.linear import LinearSolver, norm_inf, seq_dot, seq_norm2
 from .newton import load_times, solver_stats
 
 log = logging.getLogger("peridyn.solver")
+
+
+def flow_bond_field(sim) -> str:
+    """The bond field of the per-bond fluid flow, declared by every block's material
+    (``Material.flow_bond_field``): one name shared by all blocks."""
+    names = {blk.material.flow_bond_field for blk in sim.blocks}
+    if len(names) != 1 or None in names:
+        listed = ", ".join(f"{blk.material.name!r}: {blk.material.flow_bond_field!r}" for blk in sim.blocks)
+        raise InputError(
+            f"the coupled QuasiStatic solve needs every block's material to declare one bond field of fluid flow (flow_bond_field), got {listed}",
+            fix="use multiphysics materials that write their per-bond flow into the same field",
+        )
+    return names.pop()
 
 
 class CoupledProblem:
@@ -61,6 +74,7 @@ class CoupledProblem:
         nl = sim.bonds
         self._in_offsets, self._in_bonds = nl.transpose()
         self._sources = nl.sources()
+        self.flow_field = flow_bond_field(sim)
 
     # -- vectors --------------------------------------------------------------------------------
     def to_rows(self, a: np.ndarray) -> np.ndarray:
@@ -89,7 +103,7 @@ class CoupledProblem:
         out = s["Flux_Density"]
         nl = sim.bonds
         hi = sim.num_local if sim.comm.size > 1 else sim.num_owned
-        flow_gather_kernel(0, hi, nl.offsets, nl.neighbors, self._in_offsets, self._in_bonds, self._sources, s["Volume"], s[FLOW_BOND_FIELD], out)
+        gather_bond_scalar_kernel(0, hi, nl.offsets, nl.neighbors, self._in_offsets, self._in_bonds, self._sources, s["Volume"], s[self.flow_field], out)
         if sim.comm.size > 1 and sim.num_local > sim.num_owned:
             sim.halo.reverse_sum(out)
         return out

@@ -38,7 +38,7 @@ from pydantic import Field, model_validator
 from ..core.interfaces import Solver
 from ..core.params import ModelParams
 from .common import SolverSection
-from .linear import METHODS, LinearSolver
+from .linalg.linear import METHODS, LinearSolver
 from .newton import ImplicitProblem, threads_for, solver_stats
 
 log = logging.getLogger("peridyn.solver")

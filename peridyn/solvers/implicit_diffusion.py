@@ -70,7 +70,7 @@ from ..core.errors import InputError, InstabilityError
 from ..core.interfaces import Solver
 from ..core.params import ModelParams
 from .common import SolverSection
-from .linear import (
+from .linalg.linear import (
     SolveResult,
     cg_direction_kernel,
     gmres,
@@ -388,7 +388,7 @@ class DiffusionLinearSolver:
                 ok = bool(comm.allreduce_min(int(ok)))
             res = SolveResult(x, ok, 1, "" if ok else "the direct solver produced non-finite values (singular matrix?)")
         else:
-            from .ilu import ILU0, ZeroPivotError
+            from .linalg.ilu import ILU0, ZeroPivotError
 
             try:
                 ilu = ILU0(A.to_scipy(owned_only=True)) if A.n else None

@@ -9,7 +9,7 @@ engine's local order. Global reductions go through ``sim.comm``.
 Under MPI each rank's vectors hold its owned points' rows (in global-id order); norms and dot
 products are the ranks' sequential sums reduced with ``allreduce_sum`` (the inf-norm with
 ``allreduce_max``), forces come from the engine's distributed evaluation, and the tangent is
-stored by subdomain (:mod:`peridyn.solvers.tangent`). Every method that reduces is a collective
+stored by subdomain (:mod:`peridyn.solvers.linalg.tangent`). Every method that reduces is a collective
 call: all ranks make the same calls in the same order, whatever they own (possibly nothing).
 """
 from __future__ import annotations
@@ -21,8 +21,8 @@ import math
 import numpy as np
 
 from ..core.errors import InputError
-from .linear import norm_inf, seq_dot, seq_norm2
-from .tangent import TangentMatrix
+from .linalg.linear import norm_inf, seq_dot, seq_norm2
+from .linalg.tangent import TangentMatrix
 
 log = logging.getLogger("peridyn.solver")
 

@@ -14,7 +14,7 @@ Directions (``Direction > Method``):
 * ``Newton``: J d = -F by AztecOO's GMRES (restart ``Size of Krylov Subspace`` 300, ``Max
   Iterations`` 400, ``Tolerance`` 1e-10 relative to the initial residual; an unconverged
   solve is used anyway; NOX solves J x = F from x = 0 and takes d = -x). J is the tangent of
-  :mod:`peridyn.solvers.tangent` (prescribed rows and columns replaced by the mean absolute
+  :mod:`peridyn.solvers.linalg.tangent` (prescribed rows and columns replaced by the mean absolute
   diagonal), or, with ``Jacobian Operator: Matrix-Free`` and
   ``Peridigm Preconditioner`` ``Block 3x3`` or ``None``, Jacobian-free:
   J w = (F(s + delta w) - F(s))/delta with NOX's delta = lambda (lambda + ||s||/||w||),
@@ -39,7 +39,7 @@ Line searches (``Line Search > Method``): ``Full Step``; ``Polynomial`` (NOX's: 
 quadratic/cubic backtracking on 0.5 ||F||^2 with the Armijo-Goldstein condition, slope F.(J d));
 ``Backtrack`` (halving); ``NonlinearCG`` (one secant step -(F.d)/(d.J d)).
 
-Every GMRES solve is AztecOO's with its safeguards (:mod:`peridyn.solvers.aztecoo`): it stops
+Every GMRES solve is AztecOO's with its safeguards (:mod:`peridyn.solvers.linalg.aztecoo`): it stops
 when the Hessenberg condition estimate passes ``Ill-Conditioning Threshold`` (1e11), which keeps
 the null-space part of a singular tangent (a body free to move) at round-off size.
 """
@@ -53,8 +53,8 @@ import numpy as np
 
 from ..core.errors import ExitCode, PeridynError
 from ..core.interfaces import Solver
-from .aztecoo import aztecoo_gmres
-from .linear import gdot, gnorm
+from .linalg.aztecoo import aztecoo_gmres
+from .linalg.linear import gdot, gnorm
 from .newton import (
     ImplicitProblem,
     load_times,
@@ -209,7 +209,7 @@ class NOXRun:
                 return z
 
             return apply
-        from .ilu import ILU0
+        from .linalg.ilu import ILU0
 
         # under MPI: block-Jacobi, an incomplete LU of each rank's owned block (AztecOO's
         # domain decomposition without overlap); ILU(0) on the tangent's pattern (AZ_ilu)

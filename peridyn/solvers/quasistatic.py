@@ -11,7 +11,7 @@ Solver Iterations`` times:
   Previous Solver``) takes the predictor Delta u += v_previous Delta t without a solve;
 * otherwise the tangent K (analytic, or finite differences; prescribed rows/columns replaced by
   the mean absolute diagonal) is rebuilt and (-K) lhs = r solved (plain CG to 1e-4 by default,
-  see :mod:`peridyn.solvers.linear`); a failed solve is retried once on a damped tangent
+  see :mod:`peridyn.solvers.linalg.linear`); a failed solve is retried once on a damped tangent
   (diag * ``Damped Newton Diagonal Scale Factor`` + ``Shift Factor`` * max|diag|), which also
   switches the rest of the step to damped Newton (tangent rebuilt every 8 iterations);
 * the step length comes from Peridigm's line search (a secant estimate, then fixed candidate
@@ -43,7 +43,7 @@ from ..core.errors import InputError, InstabilityError
 from ..core.interfaces import Solver
 from ..core.params import ModelParams
 from .common import SolverSection
-from .linear import METHODS, LinearSolver
+from .linalg.linear import METHODS, LinearSolver
 from .newton import (
     ImplicitProblem,
     check_time_steps,

@@ -471,7 +471,7 @@ def bsr_rmatvec_kernel(indptr, indices, data, x, out):
 
 
 class TransposeProduct:
-    """y = K^T x for a :class:`~peridyn.solvers.tangent.TangentMatrix` K (owned rows in row
+    """y = K^T x for a :class:`~peridyn.solvers.linalg.tangent.TangentMatrix` K (owned rows in row
     order). Under MPI, K = sum over ranks of each rank's subdomain part K_r (owned and ghost
     rows), so K^T x gathers x's ghost entries, multiplies by K_r^T and sends the ghost rows
     back to their owners, as the forward product does (a collective call)."""

@@ -262,9 +262,9 @@ CHECK = textwrap.dedent(
     from peridyn.engine.simulation import Simulation
     from peridyn.parallel.comm import get_comm
     from peridyn.deck.source import DeckSource
-    from peridyn.solvers.aztecoo import aztecoo_gmres as aztec_gmres
-    from peridyn.solvers.linear import LinearSolver, belos_cg, gmres, pcg
-    from peridyn.solvers.tangent import TangentMatrix
+    from peridyn.solvers.linalg.aztecoo import aztecoo_gmres as aztec_gmres
+    from peridyn.solvers.linalg.linear import LinearSolver, belos_cg, gmres, pcg
+    from peridyn.solvers.linalg.tangent import TangentMatrix
 
     tree = json.loads(Path(sys.argv[1]).read_text())
     here = Path(sys.argv[1]).parent

@@ -158,6 +158,41 @@ def test_no_module_cycles() -> None:
     assert find_cycle(edges) is None
 
 
+def test_solvers_import_no_material() -> None:
+    """Solvers get what they need of a material through the Material contract (its declared
+    attributes) and the shared kernels of ``core``, never from a material module (issue 20)."""
+    graph = import_graph()
+    reach = [
+        f"{mod} -> {target}"
+        for mod, edges in graph.items()
+        if package_of(mod) == "solvers"
+        for target in edges
+        if package_of(target) == "materials"
+    ]
+    assert reach == []
+
+
+def test_linalg_holds_machinery_not_solvers() -> None:
+    """``peridyn.solvers.linalg`` (tangents, Krylov, ILU, AMG) imports no solver module, and no
+    solver plugin lives there: the built-in solvers are registered from ``peridyn.solvers``."""
+    graph = import_graph()
+    up = [
+        f"{mod} -> {target}"
+        for mod, edges in graph.items()
+        if mod.startswith("peridyn.solvers.linalg")
+        for target in edges
+        if package_of(target) == "solvers" and not target.startswith("peridyn.solvers.linalg")
+    ]
+    assert up == []
+    from peridyn.plugins.builtins import peridyn_solvers
+
+    paths = [path for _, path in peridyn_solvers()]
+    assert paths and all(p.startswith("peridyn.solvers.") and ".linalg." not in p for p in paths)
+    for name in ("tangent", "coupled_tangent", "linear", "aztecoo", "ilu", "amg"):
+        assert f"peridyn.solvers.linalg.{name}" in graph
+        assert f"peridyn.solvers.{name}" not in graph
+
+
 # -- the checks fail when they should --------------------------------------------------------------
 def _write(root: Path, files: dict[str, str]) -> Path:
     pkg = root / "peridyn"

@@ -7,9 +7,9 @@ freedom (q, c) of S_i = [N_i..., i] (neighbors in list order, then i): y_qc is m
 point i is re-evaluated from the N state (V_N, R_N, σ̂_N, eqps_N): kinematics, stress update,
 rotation and A = P K⁻¹, then the vector force states T(i→j) of i's bonds (hourglass term
 included) and their contributions on S_i, f_i += T V_j, f_j -= T V_i
-(:func:`peridyn.materials.tangents.local_vector_force_kernel`); the column is
+(:func:`peridyn.core.assembly.local_vector_force_kernel`); the column is
 (((F+ - F-)/eps)·0.5)·V_s. The local 3|S_i| x 3|S_i| block is added into the matrix with
-:func:`peridyn.materials.tangents.scatter_local_kernel` (rows ``row_of_local``; degrees of freedom
+:func:`peridyn.core.assembly.scatter_local_kernel` (rows ``row_of_local``; degrees of freedom
 of points beyond ``nrows`` dropped), points in ``pts`` order: the same arithmetic, in the same
 order, as the solver's Python finite-difference path, hence the same matrix bit for bit.
 
@@ -418,7 +418,7 @@ def point_block(
 def scatter_rows(w, W, i, offsets, neighbors, nrows, row_of_local, Kloc, indptr, indices, data):
     """data += the rows r (r % W == w) of point i's local block Kloc (row-major 3 ns x 3 ns,
     S_i = [N_i..., i]); degrees of freedom of points beyond ``nrows`` dropped, entries outside
-    the pattern dropped: the additions of :func:`peridyn.materials.tangents.scatter_local_kernel`
+    the pattern dropped: the additions of :func:`peridyn.core.assembly.scatter_local_kernel`
     that fall into those rows (each matrix entry receives the same value)."""
     o = offsets[i]
     ns = offsets[i + 1] - o + 1

@@ -2,7 +2,7 @@
 correspondence materials (PERIDIGM_CORRESPONDENCE.md §12.3), in compiled code.
 
 The probes are those of the solver's Python finite-difference path
-(:meth:`peridyn.solvers.tangent.TangentMatrix._finite_difference`), with the same arithmetic in
+(:meth:`peridyn.solvers.linalg.tangent.TangentMatrix._finite_difference`), with the same arithmetic in
 the same order, so the matrix is the same bit for bit: for every point i (``pts`` order) and every
 degree of freedom (q, c) of S_i = [N_i..., i], y_qc and v_qc are moved by -eps, -dv and then
 +eps, +dv (dv = eps/dt, 0 when dt == 0); point i alone is re-evaluated, its node-level data
@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..tangents import local_vector_force_kernel
+from ...core.assembly import local_vector_force_kernel
 from . import bond_associated_kernels as BK
 from . import hypoelastic_kernels as HK
 from .fd_tangent import scatter_rows

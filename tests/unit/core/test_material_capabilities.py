@@ -39,6 +39,9 @@ def test_every_builtin_material_declares_the_capabilities(name):
     for flag in (cls.tangent_perturbs_velocity, cls.requires_constant_horizon, cls.multiphysics, cls.row_local):
         assert isinstance(flag, bool)
     assert isinstance(cls.precompute_fields, tuple) and isinstance(cls.ghost_inputs, tuple)
+    # a multiphysics material names the bond field of its fluid flow (the coupled solver gathers it)
+    assert (cls.flow_bond_field is not None) == cls.multiphysics
+    assert cls.flow_bond_field is None or isinstance(cls.flow_bond_field, str)
     assert callable(cls.elastic_moduli)
 
 

@@ -15,7 +15,7 @@ import pytest
 
 from peridyn.core.errors import InputError
 from peridyn.materials.deviatoric import update_delta_lambda, yield_value
-from peridyn.solvers.tangent import TangentMatrix
+from peridyn.solvers.linalg.tangent import TangentMatrix
 from peridyn.testing import build_simulation, cube_deck
 from peridyn.testing.physics_checks import set_bond_damage
 

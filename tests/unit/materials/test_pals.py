@@ -212,7 +212,7 @@ def test_broken_bonds_drop_out_of_dilatation_and_force():
 def test_compiled_finite_difference_tangent_is_the_solvers_one_and_the_force_derivative():
     """The compiled tangent equals the solvers' Python finite-difference path bit for bit
     (same probes and order), and is the derivative of the assembled force."""
-    from peridyn.solvers.tangent import TangentMatrix
+    from peridyn.solvers.linalg.tangent import TangentMatrix
 
     dmg = {"Damage Model": "Critical Stretch", "Critical Stretch": 1.0e3}
     sim = pals_sim(n=4, damage=dmg, **{"Deviatoric Influence Function": "Gaussian"})

@@ -7,7 +7,7 @@ import pytest
 from peridyn.core.errors import InputError
 from peridyn.deck.files import dump_yaml
 from peridyn.solvers.coupled import CoupledProblem
-from peridyn.solvers.coupled_tangent import CoupledTangent
+from peridyn.solvers.linalg.coupled_tangent import CoupledTangent
 from peridyn.testing import build_simulation, cube_deck
 from peridyn.testing.harness import node_set_ids
 from peridyn.testing.mpi import mpirun, requires_mpi

@@ -1,4 +1,4 @@
-"""ILU(0) (peridyn.solvers.ilu, AztecOO's "ilu" preconditioner) against a dense reference: the
+"""ILU(0) (peridyn.solvers.linalg.ilu, AztecOO's "ilu" preconditioner) against a dense reference: the
 textbook IKJ elimination restricted to the pattern, in plain numpy.
 
 Tolerances. Factors and solves are compared at 1e-12 relative to the largest entry: the kernel
@@ -17,7 +17,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from peridyn.core.errors import PeridynError
-from peridyn.solvers.ilu import ILU0, ZeroPivotError, csr_pattern
+from peridyn.solvers.linalg.ilu import ILU0, ZeroPivotError, csr_pattern
 
 RTOL = 1.0e-12
 
@@ -297,7 +297,7 @@ def test_owned_block_of_a_tangent(h):
     """The tangent of a perturbed box with kinematic BCs (BSR, 3x3 blocks, explicit zeros):
     the rows and columns of a contiguous range of points (what a rank owns, in global-id
     order) and the whole matrix."""
-    from peridyn.solvers.tangent import TangentMatrix
+    from peridyn.solvers.linalg.tangent import TangentMatrix
 
     sim = h.build(h.box_deck(h.LPS, shape=(4, 3, 3)))
     h.perturb(sim)

@@ -8,9 +8,9 @@ also at 1e-6."""
 import numpy as np
 import pytest
 
-from peridyn.solvers.aztecoo import aztecoo_gmres as aztec_gmres
-from peridyn.solvers.linear import LinearSolver, belos_cg, gdot, gnorm, gsum, pcg, seq_dot, seq_norm2
-from peridyn.solvers.tangent import TangentMatrix
+from peridyn.solvers.linalg.aztecoo import aztecoo_gmres as aztec_gmres
+from peridyn.solvers.linalg.linear import LinearSolver, belos_cg, gdot, gnorm, gsum, pcg, seq_dot, seq_norm2
+from peridyn.solvers.linalg.tangent import TangentMatrix
 
 
 @pytest.fixture
@@ -123,7 +123,7 @@ def test_adaptive_is_peridigms_cg_while_it_converges_quickly(system):
 
 
 def test_adaptive_switches_to_amg_when_cg_is_slow_and_stays_there(system, monkeypatch, caplog):
-    import peridyn.solvers.linear as L
+    import peridyn.solvers.linalg.linear as L
 
     T, b, x = system
     plain = belos_cg(T.matvec, b, 1e-8, 10 * len(b))
@@ -170,7 +170,7 @@ def test_adaptive_keeps_a_cg_breakdown_a_failure():
 def _qs_run(h, monkeypatch, limit: int | None, steps: int = 4):
     """A bar pulled in ``steps`` QuasiStatic load steps (default linear solver: Adaptive); with
     ``limit`` the adaptive CG limit is lowered so that this small model switches to AMG."""
-    import peridyn.solvers.linear as L
+    import peridyn.solvers.linalg.linear as L
 
     if limit is not None:
         monkeypatch.setattr(L, "ADAPTIVE_BELOS_ITERATIONS", limit)

@@ -1,12 +1,12 @@
 """NOX's Inexact Trust Region Based solver (peridyn.solvers.trust_region), AztecOO's GMRES
-safeguards (peridyn.solvers.aztecoo) and the NOXQuasiStatic wiring."""
+safeguards (peridyn.solvers.linalg.aztecoo) and the NOXQuasiStatic wiring."""
 import math
 
 import numpy as np
 import pytest
 
 from peridyn.core.errors import InputError
-from peridyn.solvers.aztecoo import aztecoo_gmres, dlaic1
+from peridyn.solvers.linalg.aztecoo import aztecoo_gmres, dlaic1
 from peridyn.solvers.trust_region import (
     ForcingTermOptions,
     TransposeProduct,
@@ -204,7 +204,7 @@ def test_aztecoo_gmres_stops_on_a_singular_system_without_inflating_the_null_spa
 def test_transpose_product_is_the_transposed_tangent(h):
     sim = h.build(h.box_deck(h.LPS, shape=(4, 3, 3)))
     h.perturb(sim)
-    from peridyn.solvers.tangent import TangentMatrix
+    from peridyn.solvers.linalg.tangent import TangentMatrix
 
     T = TangentMatrix(sim, "full")
     T.assemble()

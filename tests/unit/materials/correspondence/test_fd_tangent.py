@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from peridyn.materials.correspondence.classic import ClassicCorrespondence
-from peridyn.solvers.tangent import TangentMatrix
+from peridyn.solvers.linalg.tangent import TangentMatrix
 from peridyn.testing import build_simulation
 
 H = 1.0e-3

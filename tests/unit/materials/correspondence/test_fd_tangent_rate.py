@@ -9,7 +9,7 @@ import pytest
 
 from peridyn.materials.correspondence.bond_associated import BondAssociatedCorrespondence
 from peridyn.materials.correspondence.hypoelastic import HypoelasticCorrespondence
-from peridyn.solvers.tangent import TangentMatrix
+from peridyn.solvers.linalg.tangent import TangentMatrix
 from peridyn.testing import build_simulation
 
 H = 1.0e-3

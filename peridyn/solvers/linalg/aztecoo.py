@@ -16,7 +16,7 @@ Gram-Schmidt, Givens rotations, ``AZ_r0`` convergence on the recursive residual)
   the cycle's update and iterates on;
 * at a restart, forms the new residual as r - A dx from the cycle's residual.
 
-Returns a :class:`~peridyn.solvers.linear.SolveResult` (``converged`` false for every early stop).
+Returns a :class:`~peridyn.solvers.linalg.linear.SolveResult` (``converged`` false for every early stop).
 """
 from __future__ import annotations
 

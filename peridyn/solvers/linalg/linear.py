@@ -1,5 +1,5 @@
 """Linear solvers for the implicit solvers' tangent systems A x = b (A a
-:class:`~peridyn.solvers.tangent.TangentMatrix` after boundary conditions and scaling).
+:class:`~peridyn.solvers.linalg.tangent.TangentMatrix` after boundary conditions and scaling).
 
 ``Linear Solver`` (a peridyn key in the ``QuasiStatic`` / ``Implicit`` sublists) picks one:
 
@@ -28,7 +28,7 @@
   handled as Peridigm handles it (damped Newton, a failed load step). On the tensile test (37,875 unknowns) plain CG needs ~810 iterations per solve,
   the AMG-preconditioned one 27.
 
-Under MPI (the TangentMatrix of a run on several ranks, see :mod:`peridyn.solvers.tangent`) every
+Under MPI (the TangentMatrix of a run on several ranks, see :mod:`peridyn.solvers.linalg.tangent`) every
 vector holds the owned rows of its rank, products exchange ghost values through the engine's
 halo, and every dot product and norm is the rank's sequential sum reduced with
 ``comm.allreduce_sum`` (the reduction order differs from the serial one: round-off only):

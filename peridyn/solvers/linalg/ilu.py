@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..core.errors import ExitCode, PeridynError
+from ...core.errors import ExitCode, PeridynError
 
 #: status codes of :func:`ilu0_factor_kernel`
 OK, ZERO_PIVOT, NOT_FINITE = 0, 1, 2

@@ -2,7 +2,7 @@
 
 K is stored block-sparse (3x3 blocks, BSR) with rows and columns in **global-id order**, the
 degree of freedom (g, c) at index 3 g + c as in Peridigm, so that matrix-vector products and
-the Krylov solvers that reproduce Peridigm's (:mod:`peridyn.solvers.linear`) sum in Peridigm's
+the Krylov solvers that reproduce Peridigm's (:mod:`peridyn.solvers.linalg.linear`) sum in Peridigm's
 order. Sparsity: every point i couples all degrees of freedom of S_i = {i} U N_i (Peridigm's
 pattern, including pairs that only share a neighbor); when every material's tangent couples
 bonded pairs only (bond-based), the pattern is just the bonded pairs. NOX preconditioners use a
@@ -48,7 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
-from ..materials.tangents import local_vector_force_kernel, scatter_local_kernel
+from ...core.assembly import local_vector_force_kernel, scatter_local_kernel
 
 log = logging.getLogger("peridyn.solver")
 

@@ -2,12 +2,12 @@
 K = d(f V, flow V)/d(y, p), 4 degrees of freedom per point (u_x, u_y, u_z, p), the dof (g, c) at
 row 4 g + c (PERIDIGM_MODELS.md §7).
 
-The same storage as :class:`peridyn.solvers.tangent.TangentMatrix` (Peridigm's pattern: every
+The same storage as :class:`peridyn.solvers.linalg.tangent.TangentMatrix` (Peridigm's pattern: every
 point couples all dofs of S_i = {i} U N_i; rows in global-id order; under MPI stored by
 subdomain, owned rows then ghost rows, diagonal blocks consolidated on their owners after every
 assembly; products exchange x's ghost entries and add the ghost rows back to their owners),
 with 4x4 blocks. The materials fill it through ``coupled_tangent(view, target)``. Provides what
-:class:`peridyn.solvers.linear.LinearSolver` uses for its ``Belos`` (Peridigm's CG) and
+:class:`peridyn.solvers.linalg.linear.LinearSolver` uses for its ``Belos`` (Peridigm's CG) and
 ``Direct`` methods: ``matvec``, ``ndof``, ``parallel``/``comm``, ``to_scipy``, ``gather_*``.
 """
 from __future__ import annotations
