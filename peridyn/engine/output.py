@@ -487,6 +487,7 @@ class OutputWriter:
         try:
             yield
         except (OSError, RuntimeError) as exc:
+            self._broken = True
             reason = getattr(exc, "strerror", None) or str(exc)
             raise OutputWriteError(
                 f"{self.entry.section}: writing {self.partial_path.name} failed at t = {t:.6g} ({reason}); the frames written "
@@ -561,6 +562,16 @@ class OutputWriter:
     def close(self, complete: bool = True) -> None:
         if self._writer is None:
             return
+        if getattr(self, "_broken", False):
+            # netCDF's C library crashes closing (or freeing) a file whose write failed: keep the
+            # handle alive to the end of the process and leave the file as written
+            import ctypes
+
+            _FAILED_WRITERS.append(self._writer)
+            ctypes.pythonapi.Py_IncRef(ctypes.py_object(self._writer))  # never freed, not even at exit
+            self._writer = None
+            log.warning("the frames of this run are in %s; %s is left as it was", self.partial_path, self.path.name)
+            return
         try:
             self._writer.close()
         except (OSError, RuntimeError) as exc:
@@ -574,6 +585,10 @@ class OutputWriter:
             os.replace(self.partial_path, self.path)
         else:
             log.warning("the frames of this run are in %s; %s is left as it was", self.partial_path, self.path.name)
+
+
+#: writers whose file failed to write, never closed nor freed (see OutputFile.close)
+_FAILED_WRITERS: list = []
 
 
 class _NullWriter:

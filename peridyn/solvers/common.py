@@ -9,7 +9,7 @@ from numba import njit
 from pydantic import Field, model_validator
 
 from ..core.params import ModelParams
-from ..core.errors import InstabilityError
+from ..core.errors import InputError, InstabilityError
 
 log = logging.getLogger("peridyn.solver")
 
@@ -33,6 +33,23 @@ class SolverSection(ModelParams):
                 "nothing would be run" + ("" if self.given("final_time") else " ('Final Time' defaults to 1.0, as in Peridigm)")
             )
         return self
+
+
+def count_steps(t0: float, t1: float, dt: float, *, source: str, file: str | None, path: tuple[str, ...]) -> int:
+    """floor((t1 - t0) / dt), Peridigm's step count; InputError when it cannot be counted or is
+    0 (a run that would end "done" without a step). ``source`` says where dt came from."""
+    steps = (t1 - t0) / dt
+    if not math.isfinite(steps):
+        raise InputError(f"the time step {dt!r} is too small for the time span to be counted in steps", file=file, path=path,
+                         fix="check Fixed dt and Final Time")
+    if steps < 1.0:
+        raise InputError(
+            f"the time step {dt:.6g} ({source}) is longer than the solver's interval {t1 - t0:.6g} (Initial Time {t0:.6g} to "
+            f"Final Time {t1:.6g}): not one step would be run",
+            file=file, path=path,
+            fix="give a later 'Final Time' or a smaller time step; a step from the estimate may mean moduli in GPa, not Pa",
+        )
+    return int(math.floor(steps))
 
 
 # serial on purpose: O(points) sums whose result must not depend on the thread count
@@ -129,13 +146,16 @@ class EnergyMonitor:
     coarse = 0.5
     #: C / S that stops a run (see _check_account)
     unstable_ratio = 4.0
+    #: energy error |C - C0| / S that stops a run whose step is above the measured limit
+    beyond_limit_error = 0.03
     #: kinetic energy beyond the supply (and C) that stops a run, as a fraction of the supply
     excess = 0.5
     #: per-step growth of the kinetic energy, at 3 consecutive steps, that stops a run without
     #: an energy account
     fast_growth = 1000.0
 
-    def __init__(self, sim, dt: float, dt_estimate: float, *, window: int = 10, accounting: bool = True, batch: int | None = None) -> None:
+    def __init__(self, sim, dt: float, dt_estimate: float, *, window: int = 10, accounting: bool = True, batch: int | None = None,
+                 beyond_limit: bool = False) -> None:
         self.sim = sim
         self.batch = batch if batch is not None else (1 if sim.comm.size == 1 else 16)
         self._rows: list[tuple[int, float, np.ndarray]] = []  # (step, time, local sums) not yet reduced
@@ -177,6 +197,9 @@ class EnergyMonitor:
         self.resolution = 0.0  # largest C / S seen (see _check_account)
         self.max_excess = 0.0  # largest (K - C) / S seen
         self.fast: list[float] = [self.kinetic0]  # kinetic energies of the last steps (no accounting)
+        #: the step is above the stable limit measured on the model (a run too short for the
+        #: unstable vibration to grow much was let start): any energy error it shows stops the run
+        self.beyond_limit = beyond_limit
         if self.stored0 is not None and self.stored0 > self.floor:
             self._check_start()
 
@@ -325,6 +348,8 @@ class EnergyMonitor:
 
         if self.kinetic - self.shadow > (1.0 + self.excess) * factor * supply:
             self._fail_excess(step, time, supply)
+        if self.beyond_limit and abs(self.shadow - self.shadow0) > max(self.beyond_limit_error * supply, self.floor):
+            self._fail_accelerations(step, time, ratio, beyond=True)
 
     def _check_start(self) -> None:
         """The initial state alone: for linear forces E0 = u.Ku/2 and the same sum as C over the
@@ -413,13 +438,17 @@ class EnergyMonitor:
             f"at least {ratio:.3g}; stable below 1, accurate well below 0.5), largest at {where}; " + self._advice()
         )
 
-    def _fail_accelerations(self, step: int, time: float, ratio: float) -> None:
+    def _fail_accelerations(self, step: int, time: float, ratio: float, *, beyond: bool = False) -> None:
         where = self._fastest_acceleration()
-        raise InstabilityError(
-            f"the run went unstable at step {step} (t = {time:.6g}): the time step is at or past the stability limit of the "
-            f"vibrations that carry the energy (dt^2/8 sum m|a|^2 is {ratio:.3g} times all the energy supplied to the run; a stable "
-            f"step keeps it a fraction of it), largest acceleration at {where}; " + self._advice()
+        what = (
+            f"the time step is above the stable limit measured on the model and its unstable vibration now holds "
+            f"{abs(self.shadow - self.shadow0) / self.supply():.1%} of all the energy supplied (an energy error, dt^2/8 sum m|a|^2)"
+            if beyond
+            else f"the time step is at or past the stability limit of the vibrations that carry the energy (dt^2/8 sum m|a|^2 is "
+            f"{ratio:.3g} times all the energy supplied to the run; a stable step keeps it a fraction of it)"
         )
+        raise InstabilityError(f"the run went unstable at step {step} (t = {time:.6g}): {what}, largest acceleration at {where}; "
+                               + self._advice())
 
     def _fail_excess(self, step: int, time: float, supply: float) -> None:
         where = self._worst_point()

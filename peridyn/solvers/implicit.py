@@ -28,7 +28,6 @@ stable and conserves the energy of a linear system exactly.
 from __future__ import annotations
 
 import logging
-import math
 import time as _time
 from typing import Literal
 
@@ -37,7 +36,7 @@ from pydantic import Field, model_validator
 
 from ..core.interfaces import Solver
 from ..core.params import ModelParams
-from .common import SolverSection
+from .common import SolverSection, count_steps
 from .linalg.linear import METHODS, LinearSolver
 from .newton import ImplicitProblem, threads_for, solver_stats
 
@@ -82,8 +81,9 @@ class Implicit(Solver):
         return "default"
 
     def planned_steps(self, sim) -> int:
-        steps = (self.params.final_time - self.params.initial_time) / self.params.implicit.fixed_dt
-        return int(math.floor(steps)) if math.isfinite(steps) else 2**63
+        p = self.params
+        return count_steps(p.initial_time, p.final_time, p.implicit.fixed_dt, source="'Fixed dt'", file=sim.deck.file,
+                           path=(self.section, "Implicit"))
 
     def run(self, sim) -> None:
         with threads_for(sim):
@@ -105,8 +105,8 @@ class Implicit(Solver):
         dt = ip.fixed_dt
         beta, gamma = ip.beta, ip.gamma
         dt2 = dt * dt
-        t0, tf = p.initial_time, p.final_time
-        nsteps = int(math.floor((tf - t0) / dt))
+        t0 = p.initial_time
+        nsteps = self.planned_steps(sim)
         lin = LinearSolver(
             method=ip.linear_solver,
             tol=1.0e-10 if ip.linear_solver == "Belos" else ip.linear_solver_tolerance,

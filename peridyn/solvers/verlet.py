@@ -19,7 +19,7 @@ from ..core.errors import InputError, InstabilityError
 from ..core.interfaces import Solver
 from ..core.params import ModelParams
 from .progress import Progress
-from .common import EnergyMonitor, SolverSection
+from .common import EnergyMonitor, SolverSection, count_steps
 
 log = logging.getLogger("peridyn.solver")
 
@@ -97,9 +97,16 @@ class Verlet(Solver):
         limit, iterations = measured_stable_step(sim, dt, stop_below=dt)
         if dt < limit:
             return limit
-        b = 2.0 * (dt / limit) ** 2 - 1.0  # (w dt)^2/2 - 1 >= 1 for the vibration found
-        per_step = b + math.sqrt(max(b * b - 1.0, 0.0))  # |eigenvalue| of the Verlet step
-        if steps * math.log10(per_step) < math.log10(self.MAX_AMPLIFICATION):
+
+        def amplification(limit: float) -> float:
+            """log10 of the growth over the run of the vibration the bound proves unstable."""
+            b = 2.0 * (dt / limit) ** 2 - 1.0  # (w dt)^2/2 - 1 >= 1 for the vibration found
+            return steps * math.log10(b + math.sqrt(max(b * b - 1.0, 0.0)))  # |eigenvalue| of a Verlet step
+
+        if amplification(limit) < math.log10(self.MAX_AMPLIFICATION):  # a short run: the full iterations decide
+            limit, iterations = measured_stable_step(sim, dt)
+        per_step = 10.0 ** (amplification(limit) / steps)
+        if amplification(limit) < math.log10(self.MAX_AMPLIFICATION):
             log.warning("%s: the time step %.4g is above the stable limit measured on the model (at most %.4g), but its %d "
                         "step(s) amplify the unstable vibration at most %.3g times", self.section, dt, limit, steps, per_step ** steps)
             return limit
@@ -116,27 +123,13 @@ class Verlet(Solver):
         return self._steps(sim, self.time_step(sim, warn=False)[0])
 
     def _steps(self, sim, dt: float) -> int:
-        """floor((t_final - t_initial) / dt); an input error when that cannot be counted or is 0
-        (a run that would end "done" without a step: a time step longer than the interval, as
-        a modulus given in GPa instead of Pa makes the critical step 3e4 times too long)."""
-        t0, t1 = self.params.initial_time, self.params.final_time
-        steps = (t1 - t0) / dt
-        if not math.isfinite(steps):
-            raise InputError(
-                f"the time step {dt!r} is too small for the time span to be counted in steps",
-                file=sim.deck.file, path=(self.section, "Verlet"), fix="check Fixed dt and Final Time",
-            )
-        if steps < 1.0:
-            p = self.params.verlet
-            source = "'Fixed dt'" if p.fixed_dt is not None else "the critical time step estimate"
-            raise InputError(
-                f"the time step {dt:.6g} ({source}{' times the Safety Factor' if p.safety_factor is not None else ''}) is longer "
-                f"than the solver's interval {t1 - t0:.6g} (Initial Time {t0:.6g} to Final Time {t1:.6g}): not one step would be run",
-                file=sim.deck.file, path=(self.section, "Verlet"),
-                fix="give a later 'Final Time' or a smaller time step; if the step is the estimate, check the units of the "
-                "moduli and density (a modulus in GPa instead of Pa makes it about 3e4 times too long)",
-            )
-        return int(math.floor(steps))
+        """floor((t_final - t_initial) / dt); an input error when that cannot be counted or is 0."""
+        p = self.params.verlet
+        source = "'Fixed dt'" if p.fixed_dt is not None else "the critical time step estimate"
+        if p.safety_factor is not None:
+            source += " times the Safety Factor"
+        return count_steps(self.params.initial_time, self.params.final_time, dt, source=source, file=sim.deck.file,
+                           path=(self.section, "Verlet"))
 
     def run(self, sim) -> None:
         s = self.params
@@ -173,7 +166,7 @@ class Verlet(Solver):
         if math.isfinite(limit):
             log.info("%s: stable limit measured on the model: at most %.4g (%.3g x the estimate)", self.section, limit, limit / dt_crit)
 
-        monitor = EnergyMonitor(sim, dt, dt_crit)
+        monitor = EnergyMonitor(sim, dt, dt_crit, beyond_limit=dt >= limit)
         sim.energy = monitor
         f_old = np.empty_like(f["Force_Density"])
         b_old = np.empty_like(f["External_Force_Density"]) if has_b else None
@@ -210,7 +203,7 @@ class Verlet(Solver):
             progress.update(step)
         monitor.flush()
         progress.close()
-        if monitor.accounting and monitor.max_error > SUSPECT_BALANCE_ERROR:
+        if monitor.accounting and monitor.max_error > SUSPECT_BALANCE_ERROR and monitor.max_scale > monitor.floor:
             log.warning(
                 "%s: the energy of the run was off by up to %.1f%% (velocity Verlet's energy error, bounded in a stable run: "
                 "the vibrations that carry the energy are resolved by few steps per period; accurate runs stay below 1%%): "

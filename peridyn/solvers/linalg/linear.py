@@ -248,6 +248,11 @@ def gmres(matvec, b: np.ndarray, tol: float, restart: int, max_restarts: int, pr
     return SolveResult(x, rel <= tol, total, "" if rel <= tol else f"GMRES stopped at relative residual {rel:.3g}")
 
 
+#: why CG stops when the preconditioned residual r.z is not positive (a preconditioner that is
+#: not positive definite, or one that returns zero for a non-zero residual)
+_INDEFINITE_PRECONDITIONER = "CG met r.z <= 0 (the preconditioner is not positive definite for this matrix)"
+
+
 def pcg(matvec, b: np.ndarray, tol: float, maxiter: int, precond=None, comm=None) -> SolveResult:
     """Preconditioned conjugate gradients from x = 0 (``precond``: v -> M^-1 v, symmetric
     positive definite), stopping when the recursive residual ||r|| <= tol ||b||; distributed
@@ -261,6 +266,8 @@ def pcg(matvec, b: np.ndarray, tol: float, maxiter: int, precond=None, comm=None
     z = precond(r) if precond is not None else r.copy()
     p = z.copy()
     rz = float(gdot(comm, r, z))
+    if not rz > 0.0:
+        return SolveResult(x, False, 0, _INDEFINITE_PRECONDITIONER)
     Ap = np.empty(n)
     rnorm = bnorm
     for it in range(1, maxiter + 1):
@@ -277,6 +284,8 @@ def pcg(matvec, b: np.ndarray, tol: float, maxiter: int, precond=None, comm=None
         z = precond(r) if precond is not None else r.copy()
         rz_old = rz
         rz = float(gdot(comm, r, z))
+        if not rz > 0.0:
+            return SolveResult(x, False, it, _INDEFINITE_PRECONDITIONER)
         p *= rz / rz_old
         p += z
     return SolveResult(x, False, maxiter, f"CG reached {maxiter} iterations (relative residual {rnorm / bnorm:.3g})")

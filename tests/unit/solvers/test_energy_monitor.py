@@ -263,3 +263,33 @@ def test_a_run_too_short_for_its_unstable_vibration_to_grow_is_run_with_a_warnin
     assert any("above the stable limit measured" in r.getMessage() for r in caplog.records)
     with pytest.raises(InstabilityError, match="would go unstable from its first step"):
         verlet(build_simulation(cube_deck(ELASTIC, n=4, spacing=1e-3)), 40, **{"Safety Factor": 1.6})
+
+
+def test_an_implicit_time_step_longer_than_the_interval_is_an_input_error(tmp_path, capsys):
+    tree = bar_deck(final_time=1.0e-6)
+    tree["Solver"] = {"Initial Time": 0.0, "Final Time": 1.0e-6, "Implicit": {"Fixed dt": 1.0e-5}}
+    assert run(tmp_path, tree) == ExitCode.INPUT_ERROR
+    assert "Solver > Implicit: the time step 1e-05 ('Fixed dt') is longer than the solver's interval" in capsys.readouterr().err
+
+
+def test_a_run_let_start_beyond_its_limit_is_stopped_once_its_energy_error_shows(monkeypatch):
+    """A short run above the measured limit is let start (its unstable vibration could not
+    grow far), but a run with loads shows the vibration at once: its energy error stops it."""
+    monkeypatch.setattr(Verlet, "MAX_AMPLIFICATION", 1e300)
+    sim = bar_sim()
+    limit, _ = measured_stable_step(sim, 1e-9, iterations=60)
+    sim.fields["Velocity"][sim.fields["Model_Coordinates"][:, 0] < 1e-3, 0] = 10.0
+    with pytest.raises(InstabilityError, match="above the stable limit measured on the model and its unstable vibration now holds"):
+        verlet(sim, 40, **{"Fixed dt": 1.02 * limit})
+
+
+def test_round_off_energies_raise_no_energy_error_warning(caplog):
+    """A model at rest that a step past the estimate barely moves (energies of 1e-26 J): its
+    'energy error' is round-off and is not reported."""
+    import logging
+
+    sim = build_simulation(cube_deck(ELASTIC, n=4, spacing=1e-3))
+    sim.fields["Velocity"][:, 0] = 1e-12
+    with caplog.at_level(logging.WARNING, logger="peridyn.solver"):
+        verlet(sim, 2, **{"Safety Factor": 1.6})
+    assert not any("energy of the run was off" in r.getMessage() for r in caplog.records)

@@ -202,3 +202,11 @@ def test_after_the_switch_to_amg_a_good_tangent_is_kept_and_the_answer_is_unchan
     assert fast["tangent_reuses"] >= 1
     u, u_ref = fast_sim.fields["Displacement"], peridigm_sim.fields["Displacement"]
     np.testing.assert_allclose(u, u_ref, rtol=0, atol=1e-8 * np.abs(u_ref).max())
+
+
+@pytest.mark.parametrize("precond", [lambda r: np.zeros_like(r), lambda r: -r])
+def test_pcg_with_a_preconditioner_that_is_not_positive_definite_fails_cleanly(precond):
+    """A degenerate AMG hierarchy (one point) returned zero: r.z = 0 divided by zero (exit 1)."""
+    A = np.diag([2.0, 3.0, 4.0])
+    res = pcg(lambda v, out: np.copyto(out, A @ v), np.ones(3), 1e-10, 50, precond)
+    assert not res.converged and "preconditioner is not positive definite" in res.message
