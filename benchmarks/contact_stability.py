@@ -137,7 +137,7 @@ def run(folder: Path, ratio: float, factor: float, hf: float, drive: str, dt_cri
     else:
         k0, k1, stored, w_loads, w_presc, worst = (float(g) for g in m.groups())
         res["worst_balance"], res["stored"] = worst / 100, stored
-        res["balance_warning"] = "energy balance error reached" in err
+        res["balance_warning"] = "energy of the run was off by up to" in err
         scale = max(k0, k1, abs(stored), abs(w_loads), abs(w_presc))
         bounded = worst / 100 <= MAX_BALANCE and stored >= -MAX_BALANCE * scale
         res["class"] = "stable" if bounded else "silent"
