@@ -419,6 +419,7 @@ class OutputWriter:
         self.initial = p.initial_output_step
         self.final = p.final_output_step
         self.count = 0
+        self._broken = False  # a write to the file failed (see _writing)
         self.names = list(dict.fromkeys(entry.variables))  # a name listed twice is written once
         self.vars = [manager.variables[n] for n in self.names]
         self.global_only = bool(self.vars) and all(v.kind == "global" for v in self.vars)
@@ -562,7 +563,7 @@ class OutputWriter:
     def close(self, complete: bool = True) -> None:
         if self._writer is None:
             return
-        if getattr(self, "_broken", False):
+        if self._broken:
             # netCDF's C library crashes closing (or freeing) a file whose write failed: keep the
             # handle alive to the end of the process and leave the file as written
             import ctypes

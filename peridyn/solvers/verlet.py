@@ -105,10 +105,10 @@ class Verlet(Solver):
 
         if amplification(limit) < math.log10(self.MAX_AMPLIFICATION):  # a short run: the full iterations decide
             limit, iterations = measured_stable_step(sim, dt)
-        per_step = 10.0 ** (amplification(limit) / steps)
-        if amplification(limit) < math.log10(self.MAX_AMPLIFICATION):
+        growth = amplification(limit)
+        if growth < math.log10(self.MAX_AMPLIFICATION):
             log.warning("%s: the time step %.4g is above the stable limit measured on the model (at most %.4g), but its %d "
-                        "step(s) amplify the unstable vibration at most %.3g times", self.section, dt, limit, steps, per_step ** steps)
+                        "step(s) amplify the unstable vibration at most %.3g times", self.section, dt, limit, steps, 10.0**growth)
             return limit
         p = self.params.verlet
         key = "Safety Factor" if p.safety_factor is not None and p.fixed_dt is None else "Fixed dt"
