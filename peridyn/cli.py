@@ -51,7 +51,7 @@ def cmd_run(args) -> int:
     check_output_names(deck, output_dir)
     locks = lock_outputs(deck, output_dir)  # a second run of the deck in this folder is refused here
     try:
-        sim = Simulation(deck, comm=comm, output_dir=output_dir, progress=not args.no_progress)
+        sim = Simulation(deck, comm=comm, output_dir=output_dir, progress=not args.no_progress, backend=args.backend)
         _log_setup(sim)
         try:
             sim.run_solvers()
@@ -119,7 +119,7 @@ def _run_parallel_locked(args, comm, output_dir: Path, wall0: float, locks: list
         deck = _agree_on_input(comm, lambda: load_deck(args.deck))
         _agree_on_input(comm, lambda: check_output_names(deck, output_dir))
         locks.extend(_agree_on_input(comm, lambda: lock_outputs(deck, output_dir) if comm.rank == 0 else []))
-        sim = _agree_on_input(comm, lambda: Simulation(deck, comm=comm, output_dir=output_dir, progress=not args.no_progress and comm.rank == 0))
+        sim = _agree_on_input(comm, lambda: Simulation(deck, comm=comm, output_dir=output_dir, progress=not args.no_progress and comm.rank == 0, backend=args.backend))
     except _ReportedInputError:
         return ExitCode.INPUT_ERROR
     except Exception as exc:  # a failure on one rank must not leave the others waiting
@@ -313,7 +313,7 @@ def cmd_plugins(args) -> int:
             except Exception as exc:
                 print(f"  {name}  [{entry.plugin}]  failed to load: {exc}")
                 continue
-            print(f"  {name}  [{entry.plugin}]")
+            print(f"  {name}  [{entry.plugin}]" + (f"  {cls.description}" if kind == "backend" and cls.description else ""))
             params = getattr(cls, "Params", None)
             if params is None or args.brief:
                 continue
@@ -375,6 +375,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("deck")
     r.add_argument("--output-dir", help="where output files go (default: the current folder)")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
+    r.add_argument("--backend", help="where arrays live and bond loops run: numba (CPU threads, the default), numba-serial, or a plugin's (default: PERIDYN_BACKEND)")
     common(r)
     r.set_defaults(func=cmd_run)
 

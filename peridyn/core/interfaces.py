@@ -18,6 +18,7 @@ import numpy as np
 
 from .fields import FieldSpec, FieldStore
 from .params import ModelParams
+from .traversal import Backend
 
 from .bonds import NeighborList
 from .discretization import Discretization
@@ -84,6 +85,7 @@ class BlockView:
     time: float = 0.0
     time_step: float = 0.0
     extras: dict[str, Any] = field(default_factory=dict)
+    backend: Backend | None = None  #: where the block's arrays live and its loops run (None: numba on CPU threads)
 
     @property
     def num_points(self) -> int:

@@ -8,51 +8,62 @@ i's temperature change). ``Damage`` of a point is its broken-bond count over its
 """
 from __future__ import annotations
 
-import math
 
 import numpy as np
-from numba import njit, prange
 from pydantic import Field, field_validator
 
 from ..core.bondmath import stretch_exceeds
 from ..core.fields import FieldSpec, Relation
 from ..core.interfaces import BlockView, DamageModel
 from ..core.params import ModelParams
+from ..core.traversal import PointSum
+from ..kernels import compiled
 
 EMPTY = np.zeros(0)
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def critical_stretch_kernel(start, stop, offsets, neighbors, zeta, y, s_c, d_n, d_np1, copy_previous, dT, alpha_T, damage):
-    """Update bond damage d_np1 (from d_n when ``copy_previous``) and the point damage of
-    points [start, stop). Shapes: zeta (nb,) reference bond lengths; y (n, 3); d_n, d_np1 (nb,);
-    damage (n,); dT (n,) or empty."""
-    thermal = dT.shape[0] > 0
-    for i in prange(start, stop):
-        acc = 0.0
-        lo = offsets[i]
-        hi = offsets[i + 1]
-        for b in range(lo, hi):
-            d = float(d_n[b]) if copy_previous else float(d_np1[b])
-            if d >= 1.0:  # broken for good: nothing to compute
-                d_np1[b] = d
-                acc += d
-                continue
-            j = neighbors[b]
-            L0 = zeta[b]
-            c0 = y[i, 0] - y[j, 0]
-            c1 = y[i, 1] - y[j, 1]
-            c2 = y[i, 2] - y[j, 2]
-            L2 = c0 * c0 + c1 * c1 + c2 * c2
-            if thermal:
-                L = math.sqrt(L2) - (alpha_T * dT[i]) * L0
-                trial = 1.0 if (L - L0) / L0 > s_c else 0.0
-            else:
-                trial = 1.0 if stretch_exceeds(L2, L0, s_c) else 0.0
-            d = trial if trial > d else d
-            d_np1[b] = d
-            acc += d
-        damage[i] = acc / (hi - lo) if hi > lo else 0.0
+# Loop law (peridyn.core.traversal); args (s_c, d_n, d_np1, copy_previous, dT, a_T, damage, offsets):
+# d_n, d_np1 (nb,) bond damage; dT (n,) or empty; damage (n,) written.
+def previous_damage(args, b):
+    """The bond's damage before this update: N when copying N into NP1, else NP1."""
+    return float(args[1][b]) if args[3] else float(args[2][b])
+
+
+def broken_gate(i, b, p, args):
+    """A bond broken for good keeps d = 1 and is skipped."""
+    d = previous_damage(args, b)
+    if d >= 1.0:
+        args[2][b] = d
+        return False
+    return True
+
+
+def stretch_damage_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """d_np1 = max(d, s > s_c) (written and returned), s the stretch less the owner's thermal
+    strain a_T dT_i."""
+    s_c, d_n, d_np1, copy_previous, dT, alpha_T, damage, offsets = args
+    d = previous_damage(args, b)
+    if dT.shape[0] > 0:
+        trial = 1.0 if ((L - (alpha_T * dT[i]) * z) - z) / z > s_c else 0.0
+    else:
+        trial = 1.0 if stretch_exceeds(ex * ex + ey * ey + ez * ez, z, s_c) else 0.0
+    d = trial if trial > d else d
+    d_np1[b] = d
+    return d
+
+
+def point_damage(i, acc, p, args):
+    """Damage of a point: broken bonds / bonds (counted from d_np1 in bond order, skipped bonds
+    included)."""
+    d_np1, offsets = args[2], args[7]
+    lo = offsets[i]
+    hi = offsets[i + 1]
+    broken = 0.0
+    for b in range(lo, hi):
+        broken += d_np1[b]
+    return broken / (hi - lo) if hi > lo else 0.0
+
+CRITICAL_STRETCH = PointSum(stretch_damage_term, gate=broken_gate, finish=point_damage)
 
 
 class CriticalStretchParams(ModelParams):
@@ -103,10 +114,8 @@ class CriticalStretch(DamageModel):
     def update(self, block: BlockView) -> None:
         s, nl = block.fields, block.bonds
         dT = s["Temperature_Change"] if self.alpha_T is not None else EMPTY
-        critical_stretch_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], self.s_c,
-            s.n("Bond_Damage"), s["Bond_Damage"], self.copy_previous, dT, float(self.alpha_T or 0.0), s["Damage"],
-        )
+        args = (self.s_c, s.n("Bond_Damage"), s["Bond_Damage"], self.copy_previous, dT, float(self.alpha_T or 0.0), s["Damage"], nl.offsets)
+        compiled(block, CRITICAL_STRETCH)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, s["Damage"])
 
 
 class TimeDependentCriticalStretchParams(ModelParams):

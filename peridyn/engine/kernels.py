@@ -1,4 +1,4 @@
-"""The engine's own numba kernels: the scalar force-state gather, bond lengths, ghost and
+"""The engine's own numba kernels: bond lengths, ghost and
 block-crossing flags, the critical time step (shapes and units in each docstring)."""
 from __future__ import annotations
 
@@ -6,43 +6,6 @@ import math
 
 import numpy as np
 from numba import njit, prange
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
-def gather_scalar_force_kernel(start, stop, offsets, neighbors, in_offsets, in_bonds, sources, y, volume, t, f):
-    """f_i = sum_{b out of i} t_b e_b V_j - sum_{b into i} t_b e_b V_src(b) for i in [start, stop):
-    the force density from scalar (central) force states, both bond ends, gathered per point.
-    Shapes: y (n, 3); volume (n,); t (nb,); f (n, 3)."""
-    for i in prange(start, stop):
-        fx = 0.0
-        fy = 0.0
-        fz = 0.0
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            ex = y[j, 0] - y[i, 0]
-            ey = y[j, 1] - y[i, 1]
-            ez = y[j, 2] - y[i, 2]
-            L = math.sqrt(ex * ex + ey * ey + ez * ez)
-            if L > 0.0:
-                s = (t[b] * volume[j]) / L
-                fx += s * ex
-                fy += s * ey
-                fz += s * ez
-        for k in range(in_offsets[i], in_offsets[i + 1]):
-            b = in_bonds[k]
-            j = sources[b]
-            ex = y[j, 0] - y[i, 0]
-            ey = y[j, 1] - y[i, 1]
-            ez = y[j, 2] - y[i, 2]
-            L = math.sqrt(ex * ex + ey * ey + ez * ez)
-            if L > 0.0:
-                s = (t[b] * volume[j]) / L
-                fx += s * ex
-                fy += s * ey
-                fz += s * ez
-        f[i, 0] = fx
-        f[i, 1] = fy
-        f[i, 2] = fz
 
 
 @njit(cache=True, parallel=True, error_model="numpy")

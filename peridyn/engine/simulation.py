@@ -22,6 +22,7 @@ from ..core.fields import FieldSpec, FieldStore, Length, Relation
 from ..core.interfaces import BlockView
 from ..deck.model import Deck, ModelEntry
 from ..geometry.influence import InfluenceFunction
+from ..kernels import select_backend
 from ..parallel.comm import SerialComm
 from . import checks, limits
 from .blocks import Block, plan_fusion
@@ -30,9 +31,8 @@ from .kernels import (
     bond_length_kernel,
     critical_time_step_kernel,
     foreign_neighbor_kernel,
-    gather_scalar_force_kernel,
 )
-from ..core.bondmath import gather_vector_force_kernel
+from ..kernels.gathers import gather_scalar_force_kernel, gather_vector_force_kernel
 
 log = logging.getLogger("peridyn.engine")
 
@@ -47,8 +47,10 @@ class Simulation:
     """
 
     def __init__(self, deck: Deck, *, comm=None, output_dir: str | Path | None = None, progress: bool = True,
-                 write_files: bool = True) -> None:
+                 write_files: bool = True, backend: str | None = None) -> None:
         self.deck = deck
+        #: where arrays live and bond loops run (``peridyn run --backend``, ``PERIDYN_BACKEND``)
+        self.backend = select_backend(backend)
         self.comm = comm or SerialComm()
         self.output_dir = Path(output_dir) if output_dir is not None else Path.cwd()
         #: False for ``peridyn check``: set-up creates no file (no Interfaces.e)
@@ -404,6 +406,7 @@ class Simulation:
                 # no damage model: the block's bonds stay intact at both ends
                 damage_symmetric=bool(blk.damage is None or blk.damage.symmetric),
                 influence=self.influence,
+                backend=self.backend,
             )
 
     def _apply_initial_conditions(self) -> None:

@@ -42,7 +42,8 @@ from ..core.fields import FieldSpec, Relation, Temporal
 from ..core.influence import omega
 from ..core.interfaces import BlockView, ElasticModuli, Material
 from ..core.params import UsedWhen
-from .elastic import weighted_volume_kernel
+from ..kernels import compiled
+from .elastic import WEIGHTED_VOLUME
 from .moduli import IsotropicElasticParams, isotropic_moduli
 
 EMPTY = np.zeros(0)
@@ -425,7 +426,9 @@ class DeviatoricStateMaterial(Material):
         if block.influence.needs_table:
             self.omega_table = block.influence.table_for(nl.offsets, nl.neighbors, s["Model_Coordinates"], np.arange(block.start, block.stop), block.horizon)
         kind, delta, table = self._common(block)
-        weighted_volume_kernel(block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Volume"], kind, delta, table, s["Weighted_Volume"])
+        compiled(block, WEIGHTED_VOLUME)(
+            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Model_Coordinates"], (s["Volume"], kind, delta, table), s["Weighted_Volume"]
+        )
 
     def precompute(self, block: BlockView) -> None:
         s, nl = block.fields, block.bonds

@@ -27,6 +27,9 @@ from ..core.fields import FieldSpec, Relation, Temporal
 from ..core.influence import omega
 from ..core.interfaces import BlockView, ElasticModuli, Material
 from ..core.params import UsedWhen
+from ..core.traversal import BondMap, PairForce, PointSum
+from ..kernels import compiled
+from ..kernels.packing import pack_points_kernel, reach_kernel
 from .moduli import IsotropicElasticParams, isotropic_moduli
 
 EMPTY = np.zeros(0)
@@ -52,87 +55,192 @@ class ElasticParams(IsotropicElasticParams):
 # kernels (shapes: x, y (n, 3) L; volume (n,) L^3; offsets (n+1,), neighbors (nb,) int32;
 # per-bond arrays (nb,); per-point arrays (n,); empty arrays mean "feature off")
 # ------------------------------------------------------------------------------------------------
-@njit(cache=True, parallel=True, error_model="numpy")
-def weighted_volume_kernel(start, stop, offsets, neighbors, x, volume, omega_kind, delta, omega_table, m):
-    """m_i = sum_j (omega zeta^2) V_j (L^5) for i in [start, stop)."""
-    for i in prange(start, stop):
-        acc = 0.0
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            dx = x[j, 0] - x[i, 0]
-            dy = x[j, 1] - x[i, 1]
-            dz = x[j, 2] - x[i, 2]
-            z2 = dx * dx + dy * dy + dz * dz
-            w = omega(omega_kind, math.sqrt(z2), delta, omega_table, b)
-            acc += (w * z2) * volume[j]
-        m[i] = acc
+# Loop laws (peridyn.core.traversal): the bond functions below are compiled into each loop by the
+# run's backend. Bond context (i, j, b, ex, ey, ez, L, z, p, args): eta = (ex, ey, ez) = y_j - y_i
+# and L = |eta| (L), z = |xi| (L), p what the law's point function returned for i. Empty arrays in
+# args mean "feature off" (no damage, no thermal strain, no influence table).
+def weighted_volume_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """omega zeta^2 V_j (L^5) of bond i->j, on reference positions (y = x); args (V, omega_kind,
+    delta, omega_table)."""
+    volume, omega_kind, delta, omega_table = args
+    z2 = ex * ex + ey * ey + ez * ez
+    return (omega(omega_kind, L, delta, omega_table, b) * z2) * volume[j]
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def dilatation_kernel(start, stop, offsets, neighbors, zeta, y, volume, m, omega_kind, delta, omega_table, bond_damage, dT, alpha_T, theta):
-    """theta_i = sum_j 3 omega (1-d) zeta e V_j / m_i (dimensionless) for i in [start, stop).
-    zeta (nb,) reference bond lengths."""
+def thermal_shift(i, args):
+    """a_T dT_i (thermal strain of the owner point), 0 without thermal strain; args[-2:] = (dT, a_T)."""
+    dT = args[-2]
+    return args[-1] * dT[i] if dT.shape[0] > 0 else 0.0
+
+
+def dilatation_term(i, j, b, ex, ey, ez, L, z, shift, args):
+    """3 omega (1-d) zeta e V_j; args (V, m, omega_kind, delta, omega_table, d, dT, a_T)."""
+    volume, m, omega_kind, delta, omega_table, bond_damage, dT, alpha_T = args
+    e = L - z
+    if dT.shape[0] > 0:
+        e -= shift * z
+    w = omega(omega_kind, z, delta, omega_table, b)
+    keep = 1.0 - bond_damage[b] if bond_damage.shape[0] > 0 else 1.0
+    return ((((3.0 * w) * keep) * z) * e) * volume[j]
+
+
+def dilatation_finish(i, acc, p, args):
+    """theta_i = acc / m_i, 0 for a point without weighted volume; args[1] = m."""
+    m = args[1]
+    return acc / m[i] if m[i] != 0.0 else 0.0
+
+
+def dilatation_plain_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """``dilatation_term`` for omega = 1, no damage, no thermal strain (the same products), on
+    packed records (args[0] = P, V in column 5)."""
+    P = args[0]
+    return ((3.0 * z) * (L - z)) * P[j, 5]
+
+
+def stretch_damage_gate(i, b, p, args):
+    """Critical-stretch damage inside the dilatation loop: a bond broken for good keeps d = 1 and
+    is skipped. args (P, m, omega_kind, delta, omega_table, s_c, d_n, d_np1, copy_previous,
+    damage, offsets)."""
+    d_n, d_np1, copy_previous = args[6], args[7], args[8]
+    d = float(d_n[b]) if copy_previous else float(d_np1[b])
+    if d >= 1.0:
+        d_np1[b] = d
+        return False
+    return True
+
+
+def stretch_damage_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """d = max(d, s > s_c) written to d_np1, and the bond's dilatation term with it."""
+    P, m, omega_kind, delta, omega_table, s_c, d_n, d_np1, copy_previous, damage, offsets = args
+    d = float(d_n[b]) if copy_previous else float(d_np1[b])
+    if stretch_exceeds(ex * ex + ey * ey + ez * ez, z, s_c):
+        d = 1.0
+    d_np1[b] = d
+    if d < 1.0:
+        w = omega(omega_kind, z, delta, omega_table, b)
+        return ((((3.0 * w) * (1.0 - d)) * z) * (L - z)) * P[j, 5]
+    return 0.0
+
+
+def stretch_damage_finish(i, acc, p, args):
+    """Point damage = broken bonds / bonds (written), theta_i returned."""
+    m, d_np1, damage, offsets = args[1], args[7], args[9], args[10]
+    lo = offsets[i]
+    hi = offsets[i + 1]
+    broken = 0.0
+    for b in range(lo, hi):
+        broken += d_np1[b]
+    damage[i] = broken / (hi - lo) if hi > lo else 0.0
+    return acc / m[i] if m[i] != 0.0 else 0.0
+
+
+def coefficients_point(i, args):
+    """(a_i, c_i, a_T dT_i); args[0:2] = (a, c), args[-2:] = (dT, a_T)."""
+    return args[0][i], args[1][i], thermal_shift(i, args)
+
+
+def force_state_bond(i, j, b, ex, ey, ez, L, z, p, args):
+    """t_ij (M L^-5 T^-2); args (a, c, omega_kind, delta, omega_table, d, dT, a_T)."""
+    a, c, omega_kind, delta, omega_table, bond_damage, dT, alpha_T = args
+    ai, ci, shift = p
+    e = L - z
+    if dT.shape[0] > 0:
+        e -= shift * z
+    w = omega(omega_kind, z, delta, omega_table, b)
+    keep = 1.0 - bond_damage[b] if bond_damage.shape[0] > 0 else 1.0
+    return keep * (w * (ci * z + keep * ai * e))
+
+
+def pair_force(i, j, b, ex, ey, ez, L, z, p, args):
+    """(t_ij + t_ji) V_j, both ends computed here (closed block, symmetric families: ``reverse``
+    gives bond j->i; read only with damage, empty when both ends have equal damage); args (a, c,
+    V, omega_kind, delta, omega_table, d, reverse, dT, a_T)."""
+    a, c, volume, omega_kind, delta, omega_table, bond_damage, reverse, dT, alpha_T = args
+    ai, ci, shift_i = p
     has_damage = bond_damage.shape[0] > 0
     thermal = dT.shape[0] > 0
-    for i in prange(start, stop):
-        if m[i] == 0.0:
-            theta[i] = 0.0
-            continue
-        acc = 0.0
-        shift = alpha_T * dT[i] if thermal else 0.0
-        yi0 = y[i, 0]
-        yi1 = y[i, 1]
-        yi2 = y[i, 2]
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            z = zeta[b]
-            ex = y[j, 0] - yi0
-            ey = y[j, 1] - yi1
-            ez = y[j, 2] - yi2
-            e = math.sqrt(ex * ex + ey * ey + ez * ez) - z
-            if thermal:
-                e -= shift * z
-            w = omega(omega_kind, z, delta, omega_table, b)
-            keep = 1.0 - bond_damage[b] if has_damage else 1.0
-            acc += ((((3.0 * w) * keep) * z) * e) * volume[j]
-        theta[i] = acc / m[i]
+    e = L - z
+    w = omega(omega_kind, z, delta, omega_table, b)
+    if has_damage or thermal:
+        e_i = e - shift_i * z if thermal else e
+        e_j = e - (alpha_T * dT[j]) * z if thermal else e
+        k_i = 1.0 - bond_damage[b] if has_damage else 1.0
+        k_j = (1.0 - bond_damage[reverse[b]] if reverse.shape[0] > 0 and reverse[b] >= 0 else k_i) if has_damage else 1.0
+        t = w * (k_i * (ci * z + k_i * ai * e_i) + k_j * (c[j] * z + k_j * a[j] * e_j))
+    else:
+        t = w * ((ci + c[j]) * z + (ai + a[j]) * e)
+    return t * volume[j]
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def dilatation_stretch_damage_kernel(start, stop, offsets, neighbors, zeta, P, m, omega_kind, delta, omega_table, s_c, d_n, d_np1, copy_previous, damage, theta):
-    """Critical-stretch damage and the dilatation in one bond loop (each deformed bond length
-    computed once): d = max(d, s > s_c) from N (``copy_previous``) or NP1, point damage = broken
-    bonds / bonds, then theta_i with the updated damage. Same results as the damage model's
-    kernel followed by ``dilatation_kernel``. P: packed records (y in columns 0-2, V in 5)."""
-    for i in prange(start, stop):
-        acc = 0.0
-        broken = 0.0
-        lo = offsets[i]
-        hi = offsets[i + 1]
-        yi0 = P[i, 0]
-        yi1 = P[i, 1]
-        yi2 = P[i, 2]
-        for b in range(lo, hi):
-            d = float(d_n[b]) if copy_previous else float(d_np1[b])
-            if d >= 1.0:  # broken for good: no force, nothing to compute
-                d_np1[b] = d
-                broken += d
-                continue
-            j = neighbors[b]
-            z = zeta[b]
-            ex = P[j, 0] - yi0
-            ey = P[j, 1] - yi1
-            ez = P[j, 2] - yi2
-            L2 = ex * ex + ey * ey + ez * ez
-            if stretch_exceeds(L2, z, s_c):
-                d = 1.0
-            d_np1[b] = d
-            broken += d
-            if d < 1.0:
-                w = omega(omega_kind, z, delta, omega_table, b)
-                acc += ((((3.0 * w) * (1.0 - d)) * z) * (math.sqrt(L2) - z)) * P[j, 5]
-        damage[i] = broken / (hi - lo) if hi > lo else 0.0
-        theta[i] = acc / m[i] if m[i] != 0.0 else 0.0
+def packed_point(i, args):
+    """(a_i, c_i) from the packed records args[0] (columns 3, 4)."""
+    P = args[0]
+    return P[i, 3], P[i, 4]
+
+
+def pair_force_plain(i, j, b, ex, ey, ez, L, z, p, args):
+    """``pair_force`` for omega = 1, no damage, no thermal strain, on packed records (y, a, c, V):
+    no branch in the bond loop."""
+    P = args[0]
+    ai, ci = p
+    t = (ci + P[j, 4]) * z + (ai + P[j, 3]) * (L - z)
+    return t * P[j, 5]
+
+
+def intact_gate(i, b, p, args):
+    """Skips a bond broken for good (args[1] = d)."""
+    return 1.0 - args[1][b] != 0.0
+
+
+def pair_force_damage_plain(i, j, b, ex, ey, ez, L, z, p, args):
+    """``pair_force`` for omega = 1, no thermal strain, damage equal at both ends (same
+    arithmetic), on packed records; args (P, d)."""
+    P, bond_damage = args
+    ai, ci = p
+    k = 1.0 - bond_damage[b]
+    e = L - z
+    t = k * (ci * z + k * ai * e) + k * (P[j, 4] * z + k * P[j, 3] * e)
+    return t * P[j, 5]
+
+
+def energy_point(i, args):
+    """theta_i; args[4] = theta."""
+    return args[4][i]
+
+
+def stored_energy_term(i, j, b, ex, ey, ez, L, z, th, args):
+    """(1-d) omega e_d^2 V_j with e_d = e - theta_i |xi| / 3, |xi| from the reference positions;
+    args (x, V, m, K, theta, mu, omega_kind, delta, omega_table, d, dT, a_T)."""
+    x, volume, m, K, theta, mu, omega_kind, delta, omega_table, bond_damage, dT, alpha_T = args
+    dx = x[i, 0] - x[j, 0]
+    dy = x[i, 1] - x[j, 1]
+    dz = x[i, 2] - x[j, 2]
+    L0 = math.sqrt(dx * dx + dy * dy + dz * dz)
+    if dT.shape[0] > 0:
+        L -= (alpha_T * dT[i]) * L0
+    ed = (L - L0) - (th * L0) / 3.0
+    keep = 1.0 - bond_damage[b] if bond_damage.shape[0] > 0 else 1.0
+    return (((keep * omega(omega_kind, L0, delta, omega_table, b)) * ed) * ed) * volume[j]
+
+
+def stored_energy_finish(i, acc, th, args):
+    """W_i = K theta^2 / 2 + (15 mu / m_i / 2) acc (energy per volume); 0 without weighted volume."""
+    m, K, mu = args[2], args[3], args[5]
+    if m[i] == 0.0:
+        return 0.0
+    alpha = (15.0 * mu) / m[i]
+    return ((0.5 * K) * th) * th + (0.5 * alpha) * acc
+
+
+WEIGHTED_VOLUME = PointSum(weighted_volume_term)
+DILATATION = PointSum(dilatation_term, point=thermal_shift, finish=dilatation_finish)
+DILATATION_PLAIN = PointSum(dilatation_plain_term, finish=dilatation_finish)
+DILATATION_STRETCH_DAMAGE = PointSum(stretch_damage_term, gate=stretch_damage_gate, finish=stretch_damage_finish)
+FORCE_STATE = BondMap(force_state_bond, point=coefficients_point)
+PAIR_FORCE = PairForce(pair_force, point=coefficients_point)
+PAIR_FORCE_PLAIN = PairForce(pair_force_plain, point=packed_point)
+PAIR_FORCE_DAMAGE_PLAIN = PairForce(pair_force_damage_plain, point=packed_point, gate=intact_gate)
+STORED_ENERGY = PointSum(stored_energy_term, point=energy_point, finish=stored_energy_finish)
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -161,39 +269,6 @@ PACK_WIDTH = 6
 PACK_MIN_ROWS = 64  # smaller views (the finite-difference tangent's single points) read the arrays
 
 
-@njit(cache=True)
-def reach_kernel(start, stop, n_owned, offsets, neighbors):
-    """(lo1, hi1, lo2, hi2): the owned rows [lo1, hi1) (including [start, stop)) and the ghost
-    rows [lo2, hi2) (empty: 0, 0) the bonds of rows [start, stop) reach."""
-    lo1, hi1 = start, stop
-    lo2, hi2 = -1, -1
-    for b in range(offsets[start], offsets[stop]):
-        j = neighbors[b]
-        if j < n_owned:
-            lo1 = min(lo1, j)
-            hi1 = max(hi1, j + 1)
-        elif lo2 < 0:
-            lo2, hi2 = j, j + 1
-        else:
-            lo2 = min(lo2, j)
-            hi2 = max(hi2, j + 1)
-    if lo2 < 0:
-        lo2, hi2 = 0, 0
-    return lo1, hi1, lo2, hi2
-
-
-@njit(cache=True, parallel=True)
-def pack_points_kernel(lo1, hi1, lo2, hi2, y, volume, P):
-    """P[i, 0:3] = y_i and P[i, 5] = V_i for the rows [lo1, hi1) and [lo2, hi2)."""
-    n1 = hi1 - lo1
-    for k in prange(n1 + (hi2 - lo2)):
-        i = lo1 + k if k < n1 else lo2 + (k - n1)
-        P[i, 0] = y[i, 0]
-        P[i, 1] = y[i, 1]
-        P[i, 2] = y[i, 2]
-        P[i, 5] = volume[i]
-
-
 @njit(cache=True, parallel=True, error_model="numpy")
 def pack_force_points_kernel(lo1, hi1, lo2, hi2, y, volume, m, theta, K, mu, P):
     """The whole record (y, a, c from ``point_coefficients``, V) of the rows [lo1, hi1) and
@@ -206,195 +281,6 @@ def pack_force_points_kernel(lo1, hi1, lo2, hi2, y, volume, m, theta, K, mu, P):
         P[i, 2] = y[i, 2]
         P[i, 3], P[i, 4] = point_coefficients(m[i], theta[i], K, mu)
         P[i, 5] = volume[i]
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
-def dilatation_plain_kernel(start, stop, offsets, neighbors, zeta, P, m, theta):
-    """``dilatation_kernel`` for omega = 1, no damage, no thermal strain (same arithmetic), on
-    packed records P (y in columns 0-2, V in column 5)."""
-    for i in prange(start, stop):
-        if m[i] == 0.0:
-            theta[i] = 0.0
-            continue
-        acc = 0.0
-        yi0 = P[i, 0]
-        yi1 = P[i, 1]
-        yi2 = P[i, 2]
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            z = zeta[b]
-            ex = P[j, 0] - yi0
-            ey = P[j, 1] - yi1
-            ez = P[j, 2] - yi2
-            e = math.sqrt(ex * ex + ey * ey + ez * ez) - z
-            acc += ((3.0 * z) * e) * P[j, 5]  # omega = 1, no damage: the same products
-        theta[i] = acc / m[i]
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
-def force_state_kernel(start, stop, offsets, neighbors, zeta, y, a, c, omega_kind, delta, omega_table, bond_damage, dT, alpha_T, t):
-    """Scalar force state t[b] (M L^-5 T^-2) of every bond of points [start, stop)."""
-    has_damage = bond_damage.shape[0] > 0
-    thermal = dT.shape[0] > 0
-    for i in prange(start, stop):
-        shift = alpha_T * dT[i] if thermal else 0.0
-        ai = a[i]
-        ci = c[i]
-        yi0 = y[i, 0]
-        yi1 = y[i, 1]
-        yi2 = y[i, 2]
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            z = zeta[b]
-            ex = y[j, 0] - yi0
-            ey = y[j, 1] - yi1
-            ez = y[j, 2] - yi2
-            e = math.sqrt(ex * ex + ey * ey + ez * ez) - z
-            if thermal:
-                e -= shift * z
-            w = omega(omega_kind, z, delta, omega_table, b)
-            keep = 1.0 - bond_damage[b] if has_damage else 1.0
-            t[b] = keep * (w * (ci * z + keep * ai * e))
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
-def fused_force_kernel(start, stop, offsets, neighbors, reverse, zeta, y, volume, a, c, omega_kind, delta, omega_table, bond_damage, dT, alpha_T, f):
-    """f_i = sum_j (t_ij + t_ji) e_ij V_j for i in [start, stop), both bond ends computed here
-    (closed block, symmetric families: ``reverse`` gives bond j->i; it is read only with damage,
-    and is empty when the damage model gives both ends equal damage)."""
-    has_damage = bond_damage.shape[0] > 0
-    thermal = dT.shape[0] > 0
-    for i in prange(start, stop):
-        fx = 0.0
-        fy = 0.0
-        fz = 0.0
-        ai = a[i]
-        ci = c[i]
-        shift_i = alpha_T * dT[i] if thermal else 0.0
-        yi0 = y[i, 0]
-        yi1 = y[i, 1]
-        yi2 = y[i, 2]
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            z = zeta[b]
-            ex = y[j, 0] - yi0
-            ey = y[j, 1] - yi1
-            ez = y[j, 2] - yi2
-            L = math.sqrt(ex * ex + ey * ey + ez * ez)
-            e = L - z
-            w = omega(omega_kind, z, delta, omega_table, b)
-            if has_damage or thermal:
-                e_i = e - shift_i * z if thermal else e
-                e_j = e - (alpha_T * dT[j]) * z if thermal else e
-                k_i = 1.0 - bond_damage[b] if has_damage else 1.0
-                k_j = (1.0 - bond_damage[reverse[b]] if reverse.shape[0] > 0 and reverse[b] >= 0 else k_i) if has_damage else 1.0
-                t = w * (k_i * (ci * z + k_i * ai * e_i) + k_j * (c[j] * z + k_j * a[j] * e_j))
-            else:
-                t = w * ((ci + c[j]) * z + (ai + a[j]) * e)
-            if L > 0.0:
-                s = (t * volume[j]) / L
-                fx += s * ex
-                fy += s * ey
-                fz += s * ez
-        f[i, 0] = fx
-        f[i, 1] = fy
-        f[i, 2] = fz
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
-def fused_force_plain_kernel(start, stop, offsets, neighbors, zeta, P, f):
-    """``fused_force_kernel`` for the common case (omega = 1, no damage, no thermal strain) on
-    packed records P (y, a, c, V): the inner loop has no branches (about 10 % faster)."""
-    for i in prange(start, stop):
-        fx = 0.0
-        fy = 0.0
-        fz = 0.0
-        ai = P[i, 3]
-        ci = P[i, 4]
-        yi0 = P[i, 0]
-        yi1 = P[i, 1]
-        yi2 = P[i, 2]
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            z = zeta[b]
-            ex = P[j, 0] - yi0
-            ey = P[j, 1] - yi1
-            ez = P[j, 2] - yi2
-            L = math.sqrt(ex * ex + ey * ey + ez * ez)
-            t = (ci + P[j, 4]) * z + (ai + P[j, 3]) * (L - z)
-            s = (t * P[j, 5]) / L if L > 0.0 else 0.0
-            fx += s * ex
-            fy += s * ey
-            fz += s * ez
-        f[i, 0] = fx
-        f[i, 1] = fy
-        f[i, 2] = fz
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
-def fused_force_damage_plain_kernel(start, stop, offsets, neighbors, zeta, P, bond_damage, f):
-    """``fused_force_kernel`` for omega = 1, no thermal strain and damage equal at both ends of
-    a bond (same arithmetic) on packed records P (y, a, c, V): broken bonds are skipped, and the
-    inner loop has no other branch."""
-    for i in prange(start, stop):
-        fx = 0.0
-        fy = 0.0
-        fz = 0.0
-        ai = P[i, 3]
-        ci = P[i, 4]
-        yi0 = P[i, 0]
-        yi1 = P[i, 1]
-        yi2 = P[i, 2]
-        for b in range(offsets[i], offsets[i + 1]):
-            k = 1.0 - bond_damage[b]
-            if k == 0.0:
-                continue
-            j = neighbors[b]
-            z = zeta[b]
-            ex = P[j, 0] - yi0
-            ey = P[j, 1] - yi1
-            ez = P[j, 2] - yi2
-            L = math.sqrt(ex * ex + ey * ey + ez * ez)
-            e = L - z
-            t = k * (ci * z + k * ai * e) + k * (P[j, 4] * z + k * P[j, 3] * e)
-            if L > 0.0:
-                s = (t * P[j, 5]) / L
-                fx += s * ex
-                fy += s * ey
-                fz += s * ez
-        f[i, 0] = fx
-        f[i, 1] = fy
-        f[i, 2] = fz
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
-def stored_energy_kernel(start, stop, offsets, neighbors, x, y, volume, m, theta, K, mu, omega_kind, delta, omega_table, bond_damage, dT, alpha_T, W):
-    """W_i = K theta^2 / 2 + (15 mu / m_i / 2) sum_j (1-d) omega e_d^2 V_j (energy per volume)."""
-    has_damage = bond_damage.shape[0] > 0
-    thermal = dT.shape[0] > 0
-    for i in prange(start, stop):
-        if m[i] == 0.0:
-            W[i] = 0.0
-            continue
-        alpha = (15.0 * mu) / m[i]
-        th = theta[i]
-        acc = 0.0
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            dx = x[i, 0] - x[j, 0]
-            dy = x[i, 1] - x[j, 1]
-            dz = x[i, 2] - x[j, 2]
-            L0 = math.sqrt(dx * dx + dy * dy + dz * dz)
-            ex = y[i, 0] - y[j, 0]
-            ey = y[i, 1] - y[j, 1]
-            ez = y[i, 2] - y[j, 2]
-            L = math.sqrt(ex * ex + ey * ey + ez * ez)
-            if thermal:
-                L -= (alpha_T * dT[i]) * L0
-            ed = (L - L0) - (th * L0) / 3.0
-            keep = 1.0 - bond_damage[b] if has_damage else 1.0
-            acc += (((keep * omega(omega_kind, L0, delta, omega_table, b)) * ed) * ed) * volume[j]
-        W[i] = ((0.5 * K) * th) * th + (0.5 * alpha) * acc
 
 
 # ------------------------------------------------------------------------------------------------
@@ -459,7 +345,9 @@ class Elastic(Material):
         if block.influence.needs_table:
             self.omega_table = block.influence.table_for(nl.offsets, nl.neighbors, s["Model_Coordinates"], np.arange(block.start, block.stop), block.horizon)
         kind, delta, table = self._common(block)
-        weighted_volume_kernel(block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Volume"], kind, delta, table, s["Weighted_Volume"])
+        compiled(block, WEIGHTED_VOLUME)(
+            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Model_Coordinates"], (s["Volume"], kind, delta, table), s["Weighted_Volume"]
+        )
 
     def adopt_damage(self, damage) -> bool:
         rule = damage.bond_rule()
@@ -472,10 +360,9 @@ class Elastic(Material):
         s, nl = block.fields, block.bonds
         kind, delta, table = self._common(block)
         _, s_c, copy_previous = self._damage_model.bond_rule()
-        dilatation_stretch_damage_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], self._packed(block, False), s["Weighted_Volume"],
-            kind, delta, table, s_c, s.n("Bond_Damage"), s["Bond_Damage"], copy_previous, s["Damage"], s["Dilatation"],
-        )
+        P = self._packed(block, False)
+        args = (P, s["Weighted_Volume"], kind, delta, table, s_c, s.n("Bond_Damage"), s["Bond_Damage"], copy_previous, s["Damage"], nl.offsets)
+        compiled(block, DILATATION_STRETCH_DAMAGE)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], P, args, s["Dilatation"])
 
     def precompute(self, block: BlockView) -> None:
         s, nl = block.fields, block.bonds
@@ -483,14 +370,11 @@ class Elastic(Material):
         dT, aT = self._dT(block)
         damage = self._damage(block)
         if kind == 0 and not damage.shape[0] and not dT.shape[0] and block.stop - block.start >= PACK_MIN_ROWS:
-            dilatation_plain_kernel(
-                block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], self._packed(block, False), s["Weighted_Volume"], s["Dilatation"]
-            )
+            P = self._packed(block, False)
+            compiled(block, DILATATION_PLAIN)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], P, (P, s["Weighted_Volume"]), s["Dilatation"])
             return
-        dilatation_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], s["Volume"],
-            s["Weighted_Volume"], kind, delta, table, damage, dT, aT, s["Dilatation"],
-        )
+        args = (s["Volume"], s["Weighted_Volume"], kind, delta, table, damage, dT, aT)
+        compiled(block, DILATATION)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, s["Dilatation"])
 
     def _reach(self, block: BlockView) -> tuple[int, int, int, int]:
         """The rows the bonds of ``block`` reach, with its own: [lo1, hi1) owned, [lo2, hi2) ghosts."""
@@ -535,10 +419,8 @@ class Elastic(Material):
         kind, delta, table = self._common(block)
         dT, aT = self._dT(block)
         a, c = self._coefficients(block)
-        force_state_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], a, c,
-            kind, delta, table, self._damage(block), dT, aT, t,
-        )
+        args = (a, c, kind, delta, table, self._damage(block), dT, aT)
+        compiled(block, FORCE_STATE)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, t)
 
     def force_fused(self, block: BlockView, force_density: np.ndarray) -> bool:
         s, nl = block.fields, block.bonds
@@ -546,19 +428,17 @@ class Elastic(Material):
         dT, aT = self._dT(block)
         damage = self._damage(block)
         if kind == 0 and not damage.shape[0] and not dT.shape[0]:
-            fused_force_plain_kernel(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], self._packed(block, True), force_density)
+            P = self._packed(block, True)
+            compiled(block, PAIR_FORCE_PLAIN)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], P, (P,), force_density)
             return True
         reverse = nl.reverse() if damage.shape[0] and not block.damage_symmetric else EMPTY_INDEX
         if kind == 0 and damage.shape[0] and not dT.shape[0] and not reverse.shape[0]:
-            fused_force_damage_plain_kernel(
-                block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], self._packed(block, True), damage, force_density
-            )
+            P = self._packed(block, True)
+            compiled(block, PAIR_FORCE_DAMAGE_PLAIN)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], P, (P, damage), force_density)
             return True
         a, c = self._coefficients(block, reach=True)
-        fused_force_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, reverse, s["Bond_Length"], s["Coordinates"], s["Volume"],
-            a, c, kind, delta, table, damage, dT, aT, force_density,
-        )
+        args = (a, c, s["Volume"], kind, delta, table, damage, reverse, dT, aT)
+        compiled(block, PAIR_FORCE)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, force_density)
         return True
 
     def tangent(self, block: BlockView, target) -> bool:
@@ -584,7 +464,5 @@ class Elastic(Material):
         s, nl = block.fields, block.bonds
         kind, delta, table = self._common(block)
         dT, aT = self._dT(block)
-        stored_energy_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Coordinates"], s["Volume"],
-            s["Weighted_Volume"], s["Dilatation"], self.K, self.mu, kind, delta, table, self._damage(block), dT, aT, out,
-        )
+        args = (s["Model_Coordinates"], s["Volume"], s["Weighted_Volume"], self.K, s["Dilatation"], self.mu, kind, delta, table, self._damage(block), dT, aT)
+        compiled(block, STORED_ENERGY)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, out)

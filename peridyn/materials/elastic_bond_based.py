@@ -17,12 +17,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
 from pydantic import Field, model_validator
 
 from ..core.fields import FieldSpec
 from ..core.interfaces import BlockView, ElasticModuli, Material
 from ..core.params import ModelParams, UsedWhen
+from ..core.traversal import BondMap, PairForce, PointSum
+from ..kernels import compiled
 from .moduli import bulk_and_shear
 
 EMPTY = np.zeros(0)
@@ -63,69 +64,44 @@ class ElasticBondBasedParams(ModelParams):
         return bulk_and_shear(E=self.youngs_modulus, nu=nu, plane_strain=self.plane_strain, plane_stress=self.plane_stress)[0]
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def force_state_kernel(start, stop, offsets, neighbors, zeta, y, c, bond_damage, t):
-    """t[b] = 0.5 (1-d) s c for the bonds of points [start, stop) (force per volume^2)."""
-    has_damage = bond_damage.shape[0] > 0
-    for i in prange(start, stop):
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            L0 = zeta[b]
-            ex = y[j, 0] - y[i, 0]
-            ey = y[j, 1] - y[i, 1]
-            ez = y[j, 2] - y[i, 2]
-            L = math.sqrt(ex * ex + ey * ey + ez * ez)
-            keep = 1.0 - bond_damage[b] if has_damage else 1.0
-            t[b] = ((0.5 * keep) * ((L - L0) / L0)) * c
+# Loop laws (peridyn.core.traversal); bond context (i, j, b, ex, ey, ez, L, z, p, args) with
+# L = |eta|, z = |xi| (L); args (c, d, ...) with d empty without damage.
+def force_state_bond(i, j, b, ex, ey, ez, L, z, p, args):
+    """t_ij = (1-d) s c / 2 (force per volume^2); args (c, d)."""
+    c, bond_damage = args
+    keep = 1.0 - bond_damage[b] if bond_damage.shape[0] > 0 else 1.0
+    return ((0.5 * keep) * ((L - z) / z)) * c
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def fused_force_kernel(start, stop, offsets, neighbors, reverse, zeta, y, volume, c, bond_damage, f):
-    """f_i = sum_j (t_ij + t_ji) eta/|eta| V_j for points [start, stop) of a closed block."""
-    has_damage = bond_damage.shape[0] > 0
-    for i in prange(start, stop):
-        fx = 0.0
-        fy = 0.0
-        fz = 0.0
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            L0 = zeta[b]
-            ex = y[j, 0] - y[i, 0]
-            ey = y[j, 1] - y[i, 1]
-            ez = y[j, 2] - y[i, 2]
-            L = math.sqrt(ex * ex + ey * ey + ez * ez)
-            half = (0.5 * ((L - L0) / L0)) * c
-            if has_damage:
-                d_rev = bond_damage[reverse[b]] if reverse.shape[0] > 0 and reverse[b] >= 0 else bond_damage[b]
-                t = (1.0 - bond_damage[b]) * half + (1.0 - d_rev) * half
-            else:
-                t = half + half
-            if L > 0.0:
-                s = (t * volume[j]) / L
-                fx += s * ex
-                fy += s * ey
-                fz += s * ez
-        f[i, 0] = fx
-        f[i, 1] = fy
-        f[i, 2] = fz
+def pair_force(i, j, b, ex, ey, ez, L, z, p, args):
+    """(t_ij + t_ji) V_j; args (c, d, reverse, V): ``reverse`` gives bond j->i (read only with
+    damage; empty when both ends have equal damage)."""
+    c, bond_damage, reverse, volume = args
+    half = (0.5 * ((L - z) / z)) * c
+    if bond_damage.shape[0] > 0:
+        d_rev = bond_damage[reverse[b]] if reverse.shape[0] > 0 and reverse[b] >= 0 else bond_damage[b]
+        t = (1.0 - bond_damage[b]) * half + (1.0 - d_rev) * half
+    else:
+        t = half + half
+    return t * volume[j]
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def stored_energy_kernel(start, stop, offsets, neighbors, zeta, y, volume, c, bond_damage, W):
-    """W_i = sum_j (1-d) c s^2 |xi| V_j / 4 (energy per volume)."""
-    has_damage = bond_damage.shape[0] > 0
-    for i in prange(start, stop):
-        acc = 0.0
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            L0 = zeta[b]
-            ex = y[j, 0] - y[i, 0]
-            ey = y[j, 1] - y[i, 1]
-            ez = y[j, 2] - y[i, 2]
-            s = (math.sqrt(ex * ex + ey * ey + ez * ez) - L0) / L0
-            keep = 1.0 - bond_damage[b] if has_damage else 1.0
-            acc += keep * c * s * s * L0 * volume[j]
-        W[i] = 0.25 * acc
+def stored_energy_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """(1-d) c s^2 |xi| V_j; args (c, d, V)."""
+    c, bond_damage, volume = args
+    s = (L - z) / z
+    keep = 1.0 - bond_damage[b] if bond_damage.shape[0] > 0 else 1.0
+    return keep * c * s * s * z * volume[j]
+
+
+def quarter(i, acc, p, args):
+    """W_i = acc / 4 (energy per volume)."""
+    return 0.25 * acc
+
+
+FORCE_STATE = BondMap(force_state_bond)
+PAIR_FORCE = PairForce(pair_force)
+STORED_ENERGY = PointSum(stored_energy_term, finish=quarter)
 
 
 class ElasticBondBased(Material):
@@ -172,15 +148,14 @@ class ElasticBondBased(Material):
 
     def force_state(self, block: BlockView, t: np.ndarray) -> None:
         s, nl = block.fields, block.bonds
-        force_state_kernel(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], self.c, self._damage(block), t)
+        compiled(block, FORCE_STATE)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], (self.c, self._damage(block)), t)
 
     def force_fused(self, block: BlockView, force_density: np.ndarray) -> bool:
         s, nl = block.fields, block.bonds
         damage = self._damage(block)
         reverse = nl.reverse() if damage.shape[0] and not block.damage_symmetric else EMPTY_INDEX
-        fused_force_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, reverse, s["Bond_Length"], s["Coordinates"], s["Volume"], self.c, damage, force_density
-        )
+        args = (self.c, damage, reverse, s["Volume"])
+        compiled(block, PAIR_FORCE)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, force_density)
         return True
 
     tangent_coupling = "pairs"
@@ -200,4 +175,5 @@ class ElasticBondBased(Material):
 
     def stored_energy_density(self, block: BlockView, out: np.ndarray) -> None:
         s, nl = block.fields, block.bonds
-        stored_energy_kernel(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], s["Volume"], self.c, self._damage(block), out)
+        args = (self.c, self._damage(block), s["Volume"])
+        compiled(block, STORED_ENERGY)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, out)

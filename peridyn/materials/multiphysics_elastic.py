@@ -36,7 +36,8 @@ from ..core.errors import InputError
 from ..core.fields import FieldSpec, Relation
 from ..core.influence import omega
 from ..core.interfaces import BlockView, ElasticModuli, Material
-from .elastic import EMPTY, dilatation_kernel, weighted_volume_kernel
+from ..kernels import compiled
+from .elastic import DILATATION, EMPTY, WEIGHTED_VOLUME
 from .moduli import IsotropicElasticParams, isotropic_moduli
 
 #: the pressure fields (node scalars): current trial value, accumulated value, rate; flow density
@@ -272,7 +273,9 @@ class MultiphysicsElastic(Material):
         if block.influence.needs_table:
             self.omega_table = block.influence.table_for(nl.offsets, nl.neighbors, s["Model_Coordinates"], np.arange(block.start, block.stop), float(self.horizon))
         kind, delta, table = self._common(block)
-        weighted_volume_kernel(block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Volume"], kind, delta, table, s["Weighted_Volume"])
+        compiled(block, WEIGHTED_VOLUME)(
+            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Model_Coordinates"], (s["Volume"], kind, delta, table), s["Weighted_Volume"]
+        )
         if self.params.apply_shear_correction_factor:
             from .elastic_plastic_hardening import shear_correction_kernel
 
@@ -284,10 +287,8 @@ class MultiphysicsElastic(Material):
         s, nl = block.fields, block.bonds
         kind, delta, table = self._common(block)
         dT, aT = self._dT(block)
-        dilatation_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], s["Volume"],
-            s["Weighted_Volume"], kind, delta, table, self._damage(block), dT, aT, s["Dilatation"],
-        )
+        args = (s["Volume"], s["Weighted_Volume"], kind, delta, table, self._damage(block), dT, aT)
+        compiled(block, DILATATION)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, s["Dilatation"])
 
     def force_state(self, block: BlockView, t: np.ndarray) -> None:
         s, nl = block.fields, block.bonds

@@ -126,3 +126,11 @@ def peridyn_boundary_conditions():
 @hookimpl
 def peridyn_computes():
     return list(BUILTIN_COMPUTES)
+
+
+@hookimpl
+def peridyn_backends():
+    return [
+        ("numba", "peridyn.kernels.numba_cpu:NumbaBackend"),
+        ("numba-serial", "peridyn.kernels.numba_cpu:SerialNumbaBackend"),
+    ]

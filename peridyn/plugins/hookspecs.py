@@ -61,3 +61,10 @@ def peridyn_boundary_conditions() -> ModelList:
     """Boundary and initial condition types: the ``Type`` value in its tidied form (upper
     case, spaces as ``_``, e.g. ``"PRESCRIBED_DISPLACEMENT"``) and a path to a
     :class:`peridyn.engine.conditions.BoundaryCondition` subclass."""
+
+
+@hookspec
+def peridyn_backends() -> ModelList:
+    """Backends: the name given to ``peridyn run --backend`` (or ``PERIDYN_BACKEND``, e.g.
+    ``"numba"``) and a path to a :class:`peridyn.core.traversal.Backend` subclass, which
+    compiles the models' loop laws for its target and says where arrays live."""

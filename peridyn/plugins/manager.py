@@ -37,6 +37,7 @@ KINDS: dict[str, tuple[str, str, str]] = {
     "solver": ("peridyn_solvers", "solver", "solver method"),
     "discretization": ("peridyn_discretizations", "discretization type", "Type"),
     "boundary_condition": ("peridyn_boundary_conditions", "boundary condition type", "Type"),
+    "backend": ("peridyn_backends", "backend", "--backend"),
 }
 
 

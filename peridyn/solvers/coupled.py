@@ -28,7 +28,7 @@ import time as _time
 
 import numpy as np
 
-from ..core.bondmath import gather_bond_scalar_kernel
+from ..kernels.gathers import gather_bond_scalar_kernel
 from ..core.errors import InputError, InstabilityError
 from .linalg.coupled_tangent import CoupledTangent
 from .linalg.linear import LinearSolver, norm_inf, seq_dot, seq_norm2

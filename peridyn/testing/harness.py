@@ -90,9 +90,11 @@ def scattered_deck(
     return tree
 
 
-def build_simulation(tree: dict[str, Any], *, directory: str | Path = ".", registry=None, output_dir: str | Path | None = None):
+def build_simulation(tree: dict[str, Any], *, directory: str | Path = ".", registry=None, output_dir: str | Path | None = None,
+                     backend: str | None = None):
     """Validate a deck tree (as loaded from YAML, without the ``Peridigm`` key) and build the
-    model, ready for solvers. File names in the deck are relative to ``directory``."""
+    model, ready for solvers, on ``backend`` (a ``peridyn_backends`` name; None: the default).
+    File names in the deck are relative to ``directory``."""
     from ..deck.model import parse_deck
     from ..engine.simulation import Simulation
     from ..deck.source import DeckSource
@@ -100,7 +102,7 @@ def build_simulation(tree: dict[str, Any], *, directory: str | Path = ".", regis
     directory = Path(directory)
     source = DeckSource(copy.deepcopy(tree), directory / "<memory>.yaml", "yaml", {})
     deck = parse_deck(source, registry)
-    return Simulation(deck, output_dir=output_dir or directory, progress=False)
+    return Simulation(deck, output_dir=output_dir or directory, progress=False, backend=backend)
 
 
 def node_set_ids(tree: dict[str, Any], where, *, directory: str | Path = ".") -> str:

@@ -25,6 +25,7 @@ LAYERS = [
     ["engine"],
     ["solvers"],
     ["materials", "damage", "contact", "computes"],
+    ["kernels"],
     ["io"],
     ["geometry"],
     ["parallel"],

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ...core.bondmath import gather_vector_force_kernel
+from ...kernels.gathers import gather_vector_force_kernel
 from ...core.fields import FieldSpec, Relation
 from ...core.interfaces import Compute
 from .classic import ClassicCorrespondence

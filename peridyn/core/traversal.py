@@ -1,0 +1,103 @@
+"""Bond loops as data: what a model hands to a backend instead of writing the loop itself.
+
+A model writes the physics of one bond (and, where it needs them, of one point) as small plain
+Python functions at module level, and names them in a *loop law*. A :class:`Backend` turns the
+law into a kernel over the bonds of a range of points: numba ``prange`` on CPU threads today,
+another compiler through the same seam (``peridyn_backends`` hook). The loop, the bond prelude
+(``eta = y_j - y_i``, ``|eta|``), the parallel policy and where the arrays live belong to the
+backend; the functions never index the CSR structure themselves.
+
+Every per-bond function receives the same bond context::
+
+    fn(i, j, b, ex, ey, ez, L, z, p, args)
+
+``i`` the point whose bonds are traversed (the loop gathers into ``i``), ``j`` the neighbor,
+``b`` the bond's row in bond fields, ``(ex, ey, ez) = y_j - y_i`` and ``L = |y_j - y_i|`` (L),
+``z = zeta[b]`` the bond's reference length (L), ``p`` what the law's ``point`` function returned
+for ``i`` (0.0 without one), and ``args`` the tuple of arrays and numbers the model passed at the
+call (its parameters, fields, outputs written at ``[b]`` or ``[i]``). Functions must be plain
+numeric code that numba compiles in nopython mode (``math``, arithmetic, indexing ``args``) and
+may call ``@njit`` helpers; they are compiled inline into each kernel, so the arithmetic and its
+order are exactly what is written.
+
+Kernel signature for every law: ``kernel(start, stop, offsets, neighbors, zeta, y, args, out)``
+with ``offsets`` (n+1,) and ``neighbors`` (nb,) int32 the CSR bonds, ``zeta`` (nb,) reference bond
+lengths (L), ``y`` (n, >=3) current positions in columns 0-2 (L; packed records may carry more
+columns), ``out`` the law's output (below). Points ``[start, stop)`` are computed.
+"""
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import Any, Callable, ClassVar
+
+
+@dataclass(frozen=True)
+class PointSum:
+    """``out[i] = finish(i, acc, p, args)`` with ``acc = sum_b term(bond context)``; ``out`` (n,).
+
+    Without ``finish``, ``out[i] = acc``. ``gate(i, b, p, args) -> bool``, when given, runs
+    before a bond's geometry: False skips the bond (e.g. broken for good).
+    """
+
+    term: Callable
+    point: Callable | None = None
+    finish: Callable | None = None
+    gate: Callable | None = None
+
+
+@dataclass(frozen=True)
+class BondMap:
+    """``out[b] = bond(bond context)`` for every bond of the points; ``out`` (nb,)."""
+
+    bond: Callable
+    point: Callable | None = None
+
+
+@dataclass(frozen=True)
+class PairForce:
+    """Force density of a pair-wise (fused) force: ``out[i] = sum_b (s / L) eta`` with
+    ``s = pair(bond context)`` the magnitude of the bond's force on ``i`` from both ends times
+    ``V_j`` (M L^-2 T^-2 times L, i.e. ``(t_ij + t_ji) V_j``); bonds with ``L = 0`` exert none.
+    ``out`` (n, 3) force per volume. ``gate`` as in :class:`PointSum`.
+    """
+
+    pair: Callable
+    point: Callable | None = None
+    gate: Callable | None = None
+
+
+Law = PointSum | BondMap | PairForce
+
+
+class Backend(ABC):
+    """Where arrays live and how bond loops run. One per run, chosen with ``peridyn run
+    --backend NAME`` (or the environment variable ``PERIDYN_BACKEND``); packages add backends
+    through the ``peridyn_backends`` hook.
+
+    ``kernel(law)`` returns the compiled loop of a law (built once per process and law, and
+    cached on disk where the backend can); the arrays it is called with come from ``zeros`` or
+    ``asarray`` of the same backend.
+    """
+
+    name: ClassVar[str]
+    #: one line for ``peridyn plugins`` and the run's log
+    description: ClassVar[str] = ""
+
+    @abstractmethod
+    def kernel(self, law: Law) -> Callable[..., Any]:
+        """The loop of ``law``: ``kernel(start, stop, offsets, neighbors, zeta, y, args, out)``."""
+
+    def zeros(self, shape: int | tuple[int, ...], dtype: Any = float) -> Any:
+        """A zero-filled array where this backend's kernels read it."""
+        import numpy as np
+
+        return np.zeros(shape, dtype=dtype)
+
+    def asarray(self, array: Any) -> Any:
+        """``array`` where this backend's kernels read it (no copy when it already is)."""
+        return array
+
+    def to_host(self, array: Any) -> Any:
+        """A numpy view or copy of a backend array (output, reductions, checks)."""
+        return array

@@ -1,0 +1,40 @@
+"""The bond-loop layer: backends that compile loop laws (``peridyn.core.traversal``) into kernels,
+and the shared gathers and packing every model's loops use."""
+from __future__ import annotations
+
+import os
+from typing import Callable
+
+from ..core.traversal import Backend, BondMap, Law, PairForce, PointSum
+
+__all__ = ["Backend", "BondMap", "Law", "PairForce", "PointSum", "compiled", "default_backend", "select_backend"]
+
+_default: Backend | None = None
+
+
+def default_backend() -> Backend:
+    """The backend of views that name none: numba on CPU threads."""
+    global _default
+    if _default is None:
+        from .numba_cpu import NumbaBackend
+
+        _default = NumbaBackend()
+    return _default
+
+
+def select_backend(name: str | None = None) -> Backend:
+    """A new backend called ``name`` (``peridyn run --backend``), else ``PERIDYN_BACKEND``, else
+    the default (numba on CPU threads); backends come from the ``peridyn_backends`` hook, and
+    an unknown name is an InputError naming where it was given."""
+    if name is None and not os.environ.get("PERIDYN_BACKEND"):
+        return default_backend()
+    from ..plugins.manager import get_registry
+
+    path = ("--backend",) if name is not None else ("PERIDYN_BACKEND",)
+    return get_registry().get("backend", name if name is not None else os.environ["PERIDYN_BACKEND"], path=path)()
+
+
+def compiled(block, law: Law) -> Callable[..., Any]:
+    """The kernel of ``law`` on the backend of ``block`` (a ``BlockView``; the default backend
+    when the view names none)."""
+    return (block.backend or default_backend()).kernel(law)

@@ -1,0 +1,196 @@
+"""Loop laws to source: the kernel of a law is a small generated module that imports the law's
+functions by name, so numba's on-disk cache works for it like for any module-level kernel.
+
+Closures over jitted functions cannot be cached by numba (a dispatcher pickles with a per-process
+id, so every process misses), and functions passed as arguments are typed by identity, with the
+same result. A generated file keyed by the hash of its own text and of the source of every
+function the law reaches is cached, and a change to the physics gives a new file.
+"""
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import inspect
+import os
+import sys
+import tempfile
+import types
+from pathlib import Path
+from typing import Callable
+
+from ..core.traversal import BondMap, Law, PairForce, PointSum
+
+ROLES = ("term", "bond", "pair", "point", "finish", "gate")
+
+
+def plain_function(fn: Callable) -> Callable:
+    """The Python function behind ``fn`` (a plain function or a numba dispatcher)."""
+    return getattr(fn, "py_func", fn)
+
+
+def function_path(fn: Callable) -> tuple[str, str]:
+    """(module, name) of a module-level function; a law's functions must be importable."""
+    py = plain_function(fn)
+    module, name = py.__module__, py.__qualname__
+    if "." in name or "<" in name or getattr(sys.modules.get(module), name, None) not in (fn, py):
+        raise TypeError(f"loop law functions must be module-level functions; {module}.{name} is not")
+    return module, name
+
+
+def _dependencies(fn: Callable, seen: set[int]) -> list[str]:
+    """Source of ``fn`` and of every Python function or dispatcher it reaches through its globals."""
+    py = plain_function(fn)
+    if id(py) in seen or not isinstance(py, types.FunctionType):
+        return []
+    seen.add(id(py))
+    try:
+        parts = [inspect.getsource(py)]
+    except (OSError, TypeError):
+        parts = [repr(py.__code__.co_code)]
+    g = py.__globals__
+    for name in py.__code__.co_names:
+        target = g.get(name)
+        if target is not None and isinstance(plain_function(target), types.FunctionType):
+            parts += _dependencies(target, seen)
+    return parts
+
+
+def law_functions(law: Law) -> dict[str, Callable]:
+    """The functions a law names, by role."""
+    return {role: getattr(law, role) for role in ROLES if getattr(law, role, None) is not None}
+
+
+def law_digest(law: Law, template: str) -> str:
+    seen: set[int] = set()
+    h = hashlib.sha256(template.encode())
+    for role, fn in sorted(law_functions(law).items()):
+        h.update(role.encode())
+        h.update(repr(function_path(fn)).encode())
+        for part in _dependencies(fn, seen):
+            h.update(part.encode())
+    return h.hexdigest()[:20]
+
+
+def cache_dir() -> Path:
+    """Where generated kernel modules (and numba's cache of them) live: ``PERIDYN_KERNEL_CACHE``,
+    else the user's cache folder, else a folder in the temporary directory."""
+    candidates = []
+    if os.environ.get("PERIDYN_KERNEL_CACHE"):
+        candidates.append(Path(os.environ["PERIDYN_KERNEL_CACHE"]))
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    candidates.append(Path(base) / "peridyn" / "kernels")
+    candidates.append(Path(tempfile.gettempdir()) / f"peridyn-kernels-{os.getuid() if hasattr(os, 'getuid') else 'user'}")
+    for d in candidates:
+        try:
+            d.mkdir(parents=True, exist_ok=True)
+            if os.access(d, os.W_OK):
+                return d
+        except OSError:
+            continue
+    raise OSError("no writable folder for compiled kernels; set PERIDYN_KERNEL_CACHE to one")
+
+
+def load_module(source: str, key: str) -> types.ModuleType:
+    """Write ``source`` to ``<cache>/<key>.py`` once (atomically) and import it as ``key``."""
+    module = sys.modules.get(key)
+    if module is not None:
+        return module
+    path = cache_dir() / f"{key}.py"
+    if not path.exists() or path.read_text() != source:
+        tmp = path.with_name(f"{key}.{os.getpid()}.tmp")
+        tmp.write_text(source)
+        os.replace(tmp, path)
+    spec = importlib.util.spec_from_file_location(key, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[key] = module  # numba's cache finds the module of a cached kernel by name
+    spec.loader.exec_module(module)
+    return module
+
+
+def compile_function(fn: Callable, compiler: Callable[[Callable], Callable]) -> Callable:
+    """``compiler`` applied to ``fn`` after the plain Python functions it calls (helpers of the
+    physics, at any depth) are rebound to ``compiler``'s versions of them, so a law's functions
+    and their helpers are ordinary Python that each backend compiles for its own target.
+    Already-compiled helpers (``@njit`` functions) are kept."""
+    return compiler(_rebound(plain_function(fn), compiler, {}))
+
+
+def _rebound(py: types.FunctionType, compiler: Callable, memo: dict[int, Callable]) -> types.FunctionType:
+    g = py.__globals__
+    new = {}
+    for name in py.__code__.co_names:
+        target = g.get(name)
+        if isinstance(target, types.FunctionType):
+            if id(target) not in memo:
+                memo[id(target)] = compiler(_rebound(target, compiler, memo))
+            new[name] = memo[id(target)]
+    if not new:
+        return py
+    f = types.FunctionType(py.__code__, {**g, **new}, py.__name__, py.__defaults__, py.__closure__)
+    f.__module__, f.__qualname__, f.__doc__ = py.__module__, py.__qualname__, py.__doc__
+    return f
+
+
+def imports(law: Law, compiler: str) -> str:
+    """Import lines binding each of the law's functions, compiled by the expression ``compiler``
+    (e.g. ``njit(error_model="numpy")``), to its role name."""
+    lines = ["from peridyn.kernels.codegen import compile_function"]
+    for role, fn in law_functions(law).items():
+        module, name = function_path(fn)
+        lines.append(f"from {module} import {name} as _{role}_source")
+        lines.append(f"{role} = compile_function(_{role}_source, {compiler})")
+    return "\n".join(lines)
+
+
+def loop_body(law: Law, indent: str) -> str:
+    """The statements of the loop over point i's bonds, as text (shared by every CPU-like backend).
+
+    The prelude reads positions through ``y`` and writes ``ex, ey, ez, L, z``; the law's function
+    is then applied and accumulated by kind."""
+    gate = getattr(law, "gate", None) is not None
+    lines = ["for b in range(offsets[i], offsets[i + 1]):"]
+    if gate:
+        lines.append("    if not gate(i, b, p, args):")
+        lines.append("        continue")
+    lines += [
+        "    j = neighbors[b]",
+        "    z = zeta[b]",
+        "    ex = y[j, 0] - yi0",
+        "    ey = y[j, 1] - yi1",
+        "    ez = y[j, 2] - yi2",
+        "    L = math.sqrt(ex * ex + ey * ey + ez * ez)",
+    ]
+    if isinstance(law, PointSum):
+        lines.append("    acc += term(i, j, b, ex, ey, ez, L, z, p, args)")
+    elif isinstance(law, BondMap):
+        lines.append("    out[b] = bond(i, j, b, ex, ey, ez, L, z, p, args)")
+    elif isinstance(law, PairForce):
+        lines += [
+            "    s = pair(i, j, b, ex, ey, ez, L, z, p, args)",
+            "    if L > 0.0:",
+            "        s = s / L",
+            "        fx += s * ex",
+            "        fy += s * ey",
+            "        fz += s * ez",
+        ]
+    else:
+        raise TypeError(f"not a loop law: {law!r}")
+    return "\n".join(indent + line for line in lines)
+
+
+def point_loop(law: Law, loop: str) -> str:
+    """The whole kernel body: ``loop`` is the point loop header (``for i in prange(start, stop):``
+    on CPU threads)."""
+    pre = ["p = point(i, args)" if law.point is not None else "p = 0.0"]
+    if isinstance(law, PointSum):
+        pre.append("acc = 0.0")
+        post = ["out[i] = finish(i, acc, p, args)" if law.finish is not None else "out[i] = acc"]
+    elif isinstance(law, PairForce):
+        pre += ["fx = 0.0", "fy = 0.0", "fz = 0.0"]
+        post = ["out[i, 0] = fx", "out[i, 1] = fy", "out[i, 2] = fz"]
+    else:
+        post = []
+    pre += ["yi0 = y[i, 0]", "yi1 = y[i, 1]", "yi2 = y[i, 2]"]
+    body = "\n".join("        " + s for s in pre) + "\n" + loop_body(law, "        ") + "\n"
+    body += "\n".join("        " + s for s in post)
+    return f"    {loop}\n{body}\n"
