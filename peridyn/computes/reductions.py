@@ -57,7 +57,7 @@ def _reduce(values: np.ndarray, kind: str, comm) -> np.ndarray:
 class _FieldReduction(Compute):
     def _variable_spec(self, sim) -> FieldSpec | None:
         var = self.params.variable
-        manager = getattr(sim, "outputs", None)
+        manager = sim.outputs
         if manager is not None and var in manager.variables:
             return manager.variables[var].spec
         if var in sim.fields:

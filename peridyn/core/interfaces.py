@@ -365,6 +365,37 @@ class Simulation(Protocol):
     prescribed_dofs: np.ndarray  #: (num_local, 3) bool, components a kinematic condition sets
     delta_u: np.ndarray | None  #: (num_local, 3) displacement increment of the implicit solvers
     output_dir: Any  #: folder of the output files (pathlib.Path)
+    num_bonds_global: int  #: bonds of the whole model (each direction counted)
+    block_index: np.ndarray  #: (num_local,) int64 index into ``blocks`` of each local point
+    block_index_mothership: np.ndarray  #: (num_global,) int64 block index of each mothership point
+    block_specs: list[Any]  #: the deck's block entries, in the order of ``blocks``
+    generic_blocks: list[Any]  #: blocks no fused kernel covers (force state + gather)
+    horizon_local: np.ndarray  #: (num_local,) horizon of each local point (L)
+    influence: Any  #: the influence function (peridyn.geometry.influence.InfluenceFunction)
+    owner: np.ndarray  #: (num_local,) int rank that owns each local point
+    halo: Any  #: ghost exchange: ``exchange(a)``, ``reverse_sum(a)``, ``begin(a)``/``end(p)`` (a no-op serially)
+    precompute_fields: list[str]  #: fields materials precompute and the halo carries before forces
+    conditions: list[Any]  #: boundary and initial conditions bound to this rank's points, deck order
+    kinematic: list[Any]  #: the conditions applied before a step (prescribed displacement, temperature, pressure)
+    outputs: Any  #: the output manager (``variables``: name -> variable of every output)
+    contact: Any | None  #: the contact manager, None without a Contact section
+    interfaces: Any | None  #: block interfaces (``Construct Interfaces``), None otherwise
+    element_nodes: np.ndarray | None  #: (n, 8, 3) hexahedron nodes (``Compute Element-Horizon Intersections``), else None
+    write_files: bool  #: False for ``peridyn check``: nothing is written
+    progress: bool  #: whether solvers show progress
+    timers: dict[str, float]  #: wall-time sections (s) for the summary
+    backend: Backend  #: where arrays live and bond loops run
+    time_step: float  #: the current step of the solver running (T)
+    overlap: bool  #: MPI: rows without ghost neighbors computed while halo messages travel
+    solver_cache: dict[str, Any]  #: what solver sections share (e.g. the implicit tangents' storage)
+    #: state solvers hand on to later solver sections and the output: written by solvers only
+    acceleration: np.ndarray | None  #: (num_local, 3) of the last dynamic step (L T^-2), None before one
+    delta_p: np.ndarray | None  #: (num_local,) fluid pressure increment of the coupled solver
+    nonlinear_iterations: int  #: iterations of the last implicit step (an output variable)
+
+    #: the attributes code outside the engine may assign (solvers: time, increments, iterations;
+    #: the conformance kit: ``overlap``); every other attribute is the engine's
+    writable: ClassVar[frozenset[str]] = frozenset({"time", "time_prev", "delta_u", "delta_p", "nonlinear_iterations", "acceleration", "overlap"})
 
     def evaluate_forces(self) -> np.ndarray:
         """Internal force density (num_owned, 3) at the current positions (M L^-2 T^-2)."""
@@ -383,6 +414,33 @@ class Simulation(Protocol):
 
     def advance(self) -> None:
         """End of a step: the NP1 state becomes the N state."""
+
+    def begin_step(self, time: float) -> None:
+        """Start of a step at ``time``: models that change with time (damage laws of t) update."""
+
+    def set_time_step(self, dt: float) -> None:
+        """The step the running solver takes (T); rate-form models read it from their views."""
+
+    def load_data(self, t: float) -> None:
+        """Read the data loader's field at time t (no-op without a ``Data Loader``)."""
+
+    def check_steps(self, steps: float, path: tuple[str, ...], section: str) -> float:
+        """The step count of a solver section, refused (InputError) when zero or beyond limits."""
+
+    def density_per_point(self) -> np.ndarray:
+        """(num_local,) mass density of each point's block (M L^-3)."""
+
+    def critical_time_steps(self) -> np.ndarray:
+        """(num_owned,) the Silling-Askari stable step of each point (T)."""
+
+    def kinetic_energy(self) -> float:
+        """Kinetic energy of the owned points, summed over ranks."""
+
+    def stored_energy(self) -> float:
+        """Stored elastic energy, sum of W_i V_i over owned points and ranks."""
+
+    def require(self, spec: FieldSpec) -> np.ndarray:
+        """The field of ``spec``, allocated on first request (late declarations of computes)."""
 
 
 # ------------------------------------------------------------------------------------------------

@@ -47,7 +47,16 @@ class Block:
 # kernels
 
 
-def plan_fusion(sim: Any) -> None:
+@dataclass
+class FusionPlan:
+    """Which blocks the generic path computes and how the force evaluation runs."""
+
+    generic_blocks: list["Block"]  #: blocks no fused kernel covers (force state + gather)
+    overlap: bool  #: MPI: compute rows without ghost neighbors while halo messages travel
+    bond_force: np.ndarray | None  #: (num_bonds,) scalar force states of the generic blocks, or None
+
+
+def plan_fusion(sim: Any) -> FusionPlan:
     """A block is fused (one kernel computes both ends of its bonds) when no bond crosses
     its boundary in either direction, its horizon is constant and its families are
     symmetric. Neighboring blocks with the same models (equal parameters) and the same
@@ -90,20 +99,20 @@ def plan_fusion(sim: Any) -> None:
             for blk in members[1:]:
                 blk.group = []
     covered = {blk.index for blk in sim.blocks if blk.fused for blk in blk.group}
-    sim.generic_blocks = [blk for blk in sim.blocks if blk.index not in covered]
+    generic_blocks = [blk for blk in sim.blocks if blk.index not in covered]
     # under MPI, compute the rows without ghost neighbors while the halo messages travel
     # (needs fused blocks and models that promise to touch only a view's rows)
-    sim.overlap = (
+    overlap = (
         parallel
-        and not sim.generic_blocks
+        and not generic_blocks
         and all(blk.material.row_local and (blk.damage is None or blk.damage.row_local) for blk in sim.blocks)
     )
-    if any(blk.material.force_state_kind == "scalar" for blk in sim.generic_blocks):
-        sim.bond_force = np.zeros(nl.num_bonds)
+    bond_force = None
+    if any(blk.material.force_state_kind == "scalar" for blk in generic_blocks):
+        bond_force = np.zeros(nl.num_bonds)
         nl.transpose()
         nl.sources()
-    else:
-        sim.bond_force = None
+    return FusionPlan(generic_blocks, bool(overlap), bond_force)
 
 def fusion_groups(sim: Any) -> list[list[Block]]:
     """Runs of consecutive blocks (contiguous point ranges) that one fused kernel may
@@ -118,7 +127,7 @@ def fusion_groups(sim: Any) -> list[list[Block]]:
         )
 
     groups: list[list[Block]] = []
-    table = bool(getattr(sim.influence, "needs_table", False))
+    table = bool(sim.influence.needs_table)
     for blk in sim.blocks:
         if (
             groups

@@ -12,6 +12,7 @@ Expressions are evaluated at the points' *reference* coordinates.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
@@ -244,9 +245,8 @@ class PrescribedFluidPressureU(BoundaryCondition):
             return
         dp = self.evaluate(t) - self.evaluate(t_prev)
         sim.fields["Fluid_Pressure_V"][self.points] = dp * (1.0 / (t - t_prev))
-        delta_p = getattr(sim, "delta_p", None)
-        if delta_p is not None:
-            delta_p[self.points] = dp
+        if sim.delta_p is not None:
+            sim.delta_p[self.points] = dp
 
 
 class InitialFluidPressureU(BoundaryCondition):
@@ -272,17 +272,28 @@ BUILTIN_CONDITIONS = (InitialVelocity, InitialDisplacement, InitialTemperature, 
 # ------------------------------------------------------------------------------------------------
 # Binding the deck's node sets and conditions to a simulation
 # ------------------------------------------------------------------------------------------------
-def create_conditions(sim: Any) -> None:
-    """Resolve the deck's node sets (mothership indices) into ``sim.node_sets`` and bind its
-    boundary conditions to this rank's points (``sim.conditions``, ``sim.kinematic``,
-    ``sim.force_conditions``, ``sim.prescribed_dofs``)."""
+@dataclass
+class BoundConditions:
+    """The deck's node sets and boundary conditions bound to this rank's points."""
+
+    node_sets: dict[str, np.ndarray]  #: tidied name -> mothership indices (duplicates kept)
+    conditions: list[Any]  #: every condition, deck order
+    kinematic: list[Any]  #: conditions applied before a step (prescribed displacement, temperature, pressure)
+    force_conditions: list[Any]  #: body forces
+    prescribed_points: np.ndarray  #: (k,) local points with a prescribed displacement component
+    prescribed_dofs: np.ndarray  #: (num_local, 3) bool, True on displacement components a kinematic condition prescribes
+
+
+def create_conditions(sim: Any) -> BoundConditions:
+    """Resolve the deck's node sets (mothership indices) and bind its boundary conditions to
+    this rank's points; declares the fields the conditions need."""
     deck = sim.deck
     from ..io.nodesets import parse_node_set_value
 
     disc = sim.discretization
     gid_order = np.argsort(disc.gid, kind="stable")
     sorted_gid = disc.gid[gid_order]
-    sim.node_sets: dict[str, np.ndarray] = {}  # tidied name -> mothership indices (duplicates kept)
+    node_sets: dict[str, np.ndarray] = {}
     errors: list[InputError] = []
     for name, entry in deck.node_sets.items():
         try:
@@ -304,53 +315,58 @@ def create_conditions(sim: Any) -> None:
                 )
             )
             continue
-        sim.node_sets[name] = gid_order[where].astype(np.int64)
+        node_sets[name] = gid_order[where].astype(np.int64)
     for raw_name, members in disc.node_sets.items():
         name = tidy(raw_name)
-        if name in sim.node_sets:
+        if name in node_sets:
             errors.append(InputError(f"node set {raw_name!r} is defined both in the deck and in the mesh", file=deck.file, path=("Boundary Conditions",), fix="rename the deck's node set"))
             continue
-        sim.node_sets[name] = np.asarray(members, dtype=np.int64)
+        node_sets[name] = np.asarray(members, dtype=np.int64)
     if rank_deficient_node_set(sim):
-        sim.node_sets.setdefault("RANK_DEFICIENT_NODES", np.zeros(0, dtype=np.int64))
-    sim.conditions = []
+        node_sets.setdefault("RANK_DEFICIENT_NODES", np.zeros(0, dtype=np.int64))
+    conditions = []
     for bc in deck.boundary_conditions:
         ns = tidy(bc.params.node_set)
-        if ns not in sim.node_sets:
+        if ns not in node_sets:
             errors.append(
                 InputError(
                     f"unknown node set {bc.params.node_set!r}",
                     file=deck.file,
                     path=bc.path + ("Node Set",),
-                    fix=f"node sets: {', '.join(sorted(sim.node_sets)) or 'none'}",
+                    fix=f"node sets: {', '.join(sorted(node_sets)) or 'none'}",
                 )
             )
             continue
-        if sim.node_sets[ns].size == 0:
+        if node_sets[ns].size == 0:
             errors.append(InputError(f"node set {bc.params.node_set!r} is empty: the condition would act on no point",
                                      file=deck.file, path=bc.path + ("Node Set",), fix="give the node set at least one point"))
             continue
         obj = bc.cls(bc.params, entry_name=bc.name)
-        members = sim.local_of_mothership[sim.node_sets[ns]]
+        members = sim.local_of_mothership[node_sets[ns]]
         members = members[(members >= 0) & (members < sim.num_owned)]  # this rank's points
         obj.bind(np.unique(members) if obj.stage != "initial" else members, sim.discretization.x[sim.mothership_of_local], sim.gid)
-        sim.conditions.append(obj)
+        conditions.append(obj)
     raise_collected(errors)
-    for obj in sim.conditions:
+    for obj in conditions:
         if obj.target == "temperature":
             sim.fields.declare(FieldSpec("Temperature", Relation.NODE))
             if obj.stage == "kinematic":
                 sim.fields.declare(FieldSpec("Temperature_Change", Relation.NODE, halo=True))
         if obj.target == "body_force":
             sim.fields.declare(FieldSpec("External_Force_Density", Relation.NODE, Length.VECTOR))
-    sim.kinematic = [c for c in sim.conditions if c.stage == "kinematic"]
-    sim.force_conditions = [c for c in sim.conditions if c.stage == "force"]
-    sim.prescribed_points = np.unique(np.concatenate([c.points for c in sim.kinematic if c.target == "displacement"] or [np.zeros(0, np.int64)]))
-    #: (n, 3) bool, True on displacement components a kinematic condition prescribes
-    sim.prescribed_dofs = np.zeros((sim.num_local, 3), dtype=bool)
-    for c in sim.kinematic:
+    kinematic = [c for c in conditions if c.stage == "kinematic"]
+    prescribed_dofs = np.zeros((sim.num_local, 3), dtype=bool)
+    for c in kinematic:
         if c.target == "displacement":
-            sim.prescribed_dofs[c.points, c.component] = True
+            prescribed_dofs[c.points, c.component] = True
+    return BoundConditions(
+        node_sets=node_sets,
+        conditions=conditions,
+        kinematic=kinematic,
+        force_conditions=[c for c in conditions if c.stage == "force"],
+        prescribed_points=np.unique(np.concatenate([c.points for c in kinematic if c.target == "displacement"] or [np.zeros(0, np.int64)])),
+        prescribed_dofs=prescribed_dofs,
+    )
 
 def rank_deficient_node_set(sim: Any) -> bool:
     """Peridigm creates an empty RANK_DEFICIENT_NODES node set (and writes it to Exodus) when

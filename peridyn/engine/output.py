@@ -187,12 +187,16 @@ class OutputManager:
 
     def __init__(self, sim: "Simulation") -> None:
         self.sim = sim
-        sim.outputs = self  # computes look up variables through it while being checked
+        self.computes: dict[str, object] = {}  # creation order = Peridigm's
+        self.variables: dict[str, Variable] = {}
+
+    def build(self) -> None:
+        """Create and check the computes and outputs of the deck (the simulation holds this
+        manager already: computes look up variables through ``sim.outputs`` while checked)."""
+        sim = self.sim
         deck = sim.deck
         registry = deck.registry
         errors: list[InputError] = []
-        self.computes: dict[str, object] = {}  # creation order = Peridigm's
-        self.variables: dict[str, Variable] = {}
         labels = {c.name: c for c in deck.computes}
         material_fields = self._model_fields()
         loader_name = deck.data_loader.field_name if deck.data_loader is not None else None
@@ -442,7 +446,7 @@ class OutputWriter:
             return
         sim = self.sim
         self.manager.run_computes(self.names)
-        if getattr(sim, "interfaces", None) is not None:  # Interfaces.e first, at this file's step
+        if sim.interfaces is not None:  # Interfaces.e first, at this file's step
             sim.interfaces.write(self.frames + 1, t)
         if self._writer is None:
             with self._writing(t):

@@ -61,9 +61,17 @@ class Simulation:
         self.delta_u: np.ndarray | None = None
         self.bond_force_vector: np.ndarray | None = None  #: (num_bonds, 3) vector force states (non-ordinary materials only)
         self.nonlinear_iterations = 0
+        self.time_step = 0.0
+        #: (num_local, 3) acceleration of the last dynamic step, kept across solver sections (None before one)
+        self.acceleration: np.ndarray | None = None
+        self.delta_p: np.ndarray | None = None  #: (num_local,) fluid pressure increment of the coupled solver
+        #: what solver sections share (the implicit tangents' sparsity and storage, by kind)
+        self.solver_cache: dict[str, Any] = {}
+        self.contact = None
+        self.interfaces = None
+        self.element_nodes: np.ndarray | None = None
         self.timers: dict[str, float] = {}
         self.stats: dict[str, Any] = {}
-        self.energy = None  # set by explicit solvers (EnergyMonitor)
         t0 = _time.perf_counter()
         from ..deck.expressions import random_seed
 
@@ -112,10 +120,13 @@ class Simulation:
             self.interfaces = setup_interfaces(self)
         self._create_models()
         self._declare_fields()
-        create_conditions(self)
+        bound = create_conditions(self)
+        self.node_sets, self.conditions, self.kinematic = bound.node_sets, bound.conditions, bound.kinematic
+        self.force_conditions, self.prescribed_points, self.prescribed_dofs = bound.force_conditions, bound.prescribed_points, bound.prescribed_dofs
         from .output import OutputManager
 
         self.outputs = OutputManager(self)
+        self.outputs.build()
         self._declare_fields_late()
         self._fill_fields(disc)
         if self.element_nodes is not None:  # the partial-volume bond fields some model declared
@@ -128,7 +139,8 @@ class Simulation:
 
             self.contact = ContactManager(self, deck.contact)
         self._make_views()
-        plan_fusion(self)
+        plan = plan_fusion(self)
+        self.generic_blocks, self.overlap, self.bond_force = plan.generic_blocks, plan.overlap, plan.bond_force
         self.num_bonds_global = int(self.comm.allreduce_sum(int(self.bonds.num_bonds)))
         checks.connected(self)
         checks.horizon_spacing(self)

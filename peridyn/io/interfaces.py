@@ -437,6 +437,6 @@ def setup_interfaces(sim: Any) -> Interfaces:
     ifaces = _as_set([r for part in gathered for r in part])
     log.info("Construct Interfaces: %d interfaces (%d quadrilaterals, %d triangles)", ifaces.size,
              int(np.sum(ifaces.num_nodes == 4)), int(np.sum(ifaces.num_nodes == 3)))
-    if not getattr(sim, "write_files", True):  # peridyn check: the interfaces, no file
+    if not sim.write_files:  # peridyn check: the interfaces, no file
         return Interfaces(sim, ifaces, None)
     return Interfaces(sim, ifaces, InterfaceFile(Path(sim.output_dir) / INTERFACES_FILE, topo, ifaces))

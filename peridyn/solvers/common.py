@@ -202,7 +202,7 @@ class EnergyMonitor:
         return all(type(blk.material).stored_energy_density is not Material.stored_energy_density for blk in sim.blocks)
 
     def _shadow_local(self) -> float:
-        a = getattr(self.sim, "acceleration", None)
+        a = self.sim.acceleration
         if a is None:
             return 0.0
         return self._shadow_of(a)
@@ -388,10 +388,10 @@ class EnergyMonitor:
 
     def _fastest_acceleration(self) -> str:
         """The point of largest acceleration over all ranks (where the step is least resolved)."""
-        return self._locate(getattr(self.sim, "acceleration", None))
+        return self._locate(self.sim.acceleration)
 
     def _advice(self) -> str:
-        contact = getattr(self.sim, "contact", None)
+        contact = self.sim.contact
         note = contact.diagnosis(self.dt) if contact is not None else ""
         if note.startswith("contact springs"):  # the contact springs are what the step cannot resolve
             return note

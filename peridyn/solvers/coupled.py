@@ -370,7 +370,7 @@ class CoupledQuasiStaticRun:
         self.pV[:] = 0.0
         t_cur = t_prev = times[0]
         sim.time_prev = sim.time = t_cur
-        saved = sim.delta_u, getattr(sim, "delta_p", None)
+        saved = sim.delta_u, sim.delta_p
         sim.delta_u, sim.delta_p = self.du, self.dp
         try:
             sim.apply_kinematic(t_cur, t_prev)

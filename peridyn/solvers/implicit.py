@@ -99,7 +99,7 @@ class Implicit(Solver):
         f = sim.fields
         x, u, y, v = f["Model_Coordinates"], f["Displacement"], f["Coordinates"], f["Velocity"]
         rho = sim.density_per_point()[:n]
-        a = getattr(sim, "acceleration", None)
+        a = sim.acceleration
         if a is None:
             a = sim.acceleration = np.zeros((sim.num_local, 3))
         dt = ip.fixed_dt

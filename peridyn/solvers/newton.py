@@ -87,7 +87,7 @@ class ImplicitProblem:
         self.comm = sim.comm if sim.comm.size > 1 else None  # None: the serial arithmetic
         n = sim.num_owned
         self.n = n
-        cache = sim.__dict__.setdefault("_implicit_tangents", {})
+        cache = sim.solver_cache.setdefault("implicit tangents", {})
         if tangent_kind not in cache:
             cache[tangent_kind] = TangentMatrix(sim, tangent_kind)
         self.tangent: TangentMatrix = cache[tangent_kind]

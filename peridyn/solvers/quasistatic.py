@@ -155,7 +155,7 @@ class QuasiStatic(Solver):
 
     def run(self, sim) -> None:
         with threads_for(sim):
-            if getattr(sim.deck, "multiphysics", False):  # 4 dofs per point (PERIDIGM_MODELS.md §7)
+            if sim.deck.multiphysics:  # 4 dofs per point (PERIDIGM_MODELS.md §7)
                 from .coupled import CoupledQuasiStaticRun
 
                 CoupledQuasiStaticRun(self, sim).run()

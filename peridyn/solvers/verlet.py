@@ -67,7 +67,7 @@ class Verlet(Solver):
         elif p.fixed_dt is not None and dt > dt_crit:
             log.warning("%s: the time step %.4g exceeds the critical time step estimate %.4g (ratio %.3g)", self.section, dt, dt_crit,
                         dt / dt_crit if dt_crit > 0 else math.inf)
-        contact = getattr(sim, "contact", None)
+        contact = sim.contact
         if contact is not None:
             dt_c = contact.stable_time_step()
             if dt > dt_c:
@@ -143,13 +143,13 @@ class Verlet(Solver):
         has_b = "External_Force_Density" in f
         rho = sim.density_per_point()
         no_b = np.zeros((0, 3))
-        a = getattr(sim, "acceleration", None)
+        a = sim.acceleration
         if a is None:
             a = sim.acceleration = np.zeros((n, 3))
         sim.set_time_step(dt)
         log.info("%s: Verlet, dt = %.6g (critical estimate %.6g), %d steps from t = %.6g to %.6g", self.section, dt, dt_crit, nsteps, t0, t0 + nsteps * dt)
 
-        contact = getattr(sim, "contact", None)
+        contact = sim.contact
 
         # step 0
         sim.time_prev = sim.time = t = t0
@@ -167,7 +167,6 @@ class Verlet(Solver):
             log.info("%s: stable limit measured on the model: at most %.4g (%.3g x the estimate)", self.section, limit, limit / dt_crit)
 
         monitor = EnergyMonitor(sim, dt, dt_crit, beyond_limit=dt >= limit)
-        sim.energy = monitor
         f_old = np.empty_like(f["Force_Density"])
         b_old = np.empty_like(f["External_Force_Density"]) if has_b else None
         du = np.empty_like(u)

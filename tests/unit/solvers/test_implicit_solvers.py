@@ -265,4 +265,4 @@ def test_matrix_free_without_peridigm_preconditioner_warns_of_the_full_tangent(h
     with caplog.at_level("WARNING", logger="peridyn"):
         sim.run_solvers()
     assert any("assembles the full tangent" in r.getMessage() for r in caplog.records) == warned
-    assert list(sim._implicit_tangents) == [tangent]
+    assert list(sim.solver_cache["implicit tangents"]) == [tangent]

@@ -155,7 +155,7 @@ def test_distributed_kernels_and_views_match_the_serial_ones(h):
     """The pieces the MPI path uses, run on one process: the BC kernel with a given D equals
     Peridigm's; the owned block and the matrix gathered to the root (mothership numbering) are
     the matrix; gathering and scattering a vector are inverse permutations."""
-    from peridyn.solvers.linalg.tangent import abs_diagonal_sum_kernel, kinematic_bc_set_kernel
+    from peridyn.solvers.linalg.bsr import abs_diagonal_sum_kernel, kinematic_bc_set_kernel
 
     sim = h.build(h.box_deck(h.LPS, shape=(4, 3, 2)))
     h.perturb(sim)

@@ -1,0 +1,83 @@
+"""The simulation is a typed model: what code outside the engine reads of it, or assigns, is
+declared on ``peridyn.core.interfaces.Simulation``, and the engine provides every declared name.
+
+Read through the syntax of the package: every ``sim.NAME``, ``self.sim.NAME`` or
+``simulation.NAME`` outside ``engine/simulation.py`` (and the command line, which drives the
+engine itself) must be declared; assignments only to ``Simulation.writable``; no ``getattr``,
+``hasattr`` or ``setattr`` probing a simulation, no ``sim.__dict__``.
+"""
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+from peridyn.core.interfaces import Simulation
+from peridyn.testing.harness import build_simulation, cube_deck
+
+PACKAGE = Path(__file__).resolve().parents[3] / "peridyn"
+OWN = {PACKAGE / "engine" / "simulation.py", PACKAGE / "cli.py"}
+
+
+def declared() -> set[str]:
+    names = {n for n, a in Simulation.__annotations__.items() if not str(a).startswith("ClassVar")}
+    names |= {n for n, v in vars(Simulation).items() if callable(v) and not n.startswith("_")}
+    return names
+
+
+def is_simulation(node: ast.AST) -> bool:
+    if isinstance(node, ast.Name):
+        return node.id in ("sim", "simulation")
+    return isinstance(node, ast.Attribute) and node.attr in ("sim", "simulation") and isinstance(node.value, ast.Name) and node.value.id == "self"
+
+
+def uses() -> list[tuple[str, int, str, str]]:
+    """(file, line, 'read' | 'write' | 'probe', name) of every use of a simulation's attributes."""
+    found = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        if path in OWN:
+            continue
+        rel = str(path.relative_to(PACKAGE.parent))
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Attribute) and is_simulation(node.value):
+                found.append((rel, node.lineno, "write" if isinstance(node.ctx, (ast.Store, ast.Del)) else "read", node.attr))
+            elif isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in ("getattr", "hasattr", "setattr"):
+                if node.args and is_simulation(node.args[0]):
+                    found.append((rel, node.lineno, "probe", ast.unparse(node)))
+    return found
+
+
+def test_code_outside_the_engine_reads_only_declared_attributes():
+    known = declared() | {"__class__"}
+    bad = [f"{f}:{line}: {name}" for f, line, kind, name in uses() if kind == "read" and name not in known]
+    assert not bad, "undeclared attributes of the simulation read (declare them on core.interfaces.Simulation):\n" + "\n".join(bad)
+
+
+def test_code_outside_the_engine_assigns_only_writable_attributes():
+    bad = [f"{f}:{line}: {name}" for f, line, kind, name in uses() if kind == "write" and name not in Simulation.writable]
+    assert not bad, "attributes of the simulation assigned outside the engine (return values instead):\n" + "\n".join(bad)
+
+
+def test_no_probing_of_the_simulation():
+    bad = [f"{f}:{line}: {name}" for f, line, kind, name in uses() if kind == "probe" or name == "__dict__"]
+    assert not bad, "getattr/hasattr/setattr on a simulation (declare the attribute instead):\n" + "\n".join(bad)
+
+
+def test_the_check_sees_what_it_is_meant_to(tmp_path):
+    """The scan is not vacuous: it finds reads, and flags an undeclared one."""
+    found = uses()
+    assert sum(kind == "read" for *_, kind, _ in found) > 200
+    bad = tmp_path / "bad.py"
+    bad.write_text("def f(sim):\n    return sim.undeclared_thing, getattr(sim, 'x', None)\n")
+    tree = ast.parse(bad.read_text())
+    names = {n.attr for n in ast.walk(tree) if isinstance(n, ast.Attribute) and is_simulation(n.value)}
+    assert names == {"undeclared_thing"} and "undeclared_thing" not in declared()
+
+
+@pytest.mark.parametrize("damage", [None, {"Damage Model": "Critical Stretch", "Critical Stretch": 0.01}])
+def test_the_engine_provides_every_declared_name(damage):
+    sim = build_simulation(cube_deck({"Material Model": "Elastic", "Density": 1.0, "Bulk Modulus": 1.0, "Shear Modulus": 0.5}, n=4, damage=damage))
+    missing = sorted(name for name in declared() if not hasattr(sim, name))
+    assert not missing, f"declared on the Simulation contract but absent from the engine's: {missing}"
+    assert Simulation.writable <= declared()
