@@ -5,10 +5,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from ..core.fields import FieldSpec, Relation
 from ..core.interfaces import Compute
+from ..core.traversal import PointSum
+from ..kernels import default_backend
 
 
 class _Constant(Compute):
@@ -91,19 +92,35 @@ class NeighborhoodVolume(_Constant):
             weights = np.zeros(nl.num_bonds)
             fill_partial_volumes(sim, nodes, p.intersection_recursion_level, p.intersection_number_of_samples, nv=weights)
         out = vol[: nl.num_points].copy()
-        sequential_row_sum(nl.offsets, weights, out)
+        s = sim.fields
+        sequential_row_sum(nl.offsets, nl.neighbors, s["Bond_Length"], s["Model_Coordinates"], np.ascontiguousarray(weights, float), out,
+                           getattr(sim, "backend", None))
         return out
 
 
-@njit(cache=True)
-def sequential_row_sum(offsets, weights, out):
+# Loop law (peridyn.core.traversal): the sum runs in out[i] itself, from V_i, one bond at a time
+# (Peridigm's order; PointSum's accumulator starts at 0). args (weights (nb,) L^3, out (n,) L^3).
+def running_sum_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """Adds the bond's weight to out[i]; contributes nothing to the law's own sum."""
+    weights, out = args
+    out[i] += weights[b]
+    return 0.0
+
+
+def running_sum_finish(i, acc, p, args):
+    """out[i], the running sum (written back unchanged)."""
+    return args[1][i]
+
+
+ROW_SUM = PointSum(running_sum_term, finish=running_sum_finish)
+
+
+def sequential_row_sum(offsets, neighbors, zeta, x, weights, out, backend=None):
     """out[i] += weights[offsets[i]] + ... in bond order, one addition at a time (Peridigm's
-    order). offsets (n+1,), weights (nb,), out (n,)."""
-    for i in range(offsets.shape[0] - 1):
-        acc = out[i]
-        for b in range(offsets[i], offsets[i + 1]):
-            acc += weights[b]
-        out[i] = acc
+    order), for every row: the law ROW_SUM. offsets (n+1,), neighbors (nb,), zeta (nb,) bond
+    lengths (L), x (n, 3) positions (L; the law reads no geometry), weights (nb,), out (n,)."""
+    kernel = (backend or default_backend()).kernel(ROW_SUM)
+    kernel(0, offsets.shape[0] - 1, offsets, neighbors, zeta, x, (weights, out), out)
 
 
 class NonlinearSolverIterations(Compute):

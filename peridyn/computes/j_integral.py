@@ -27,55 +27,94 @@ from __future__ import annotations
 import logging
 
 import numpy as np
-from numba import njit, prange
 from pydantic import Field, model_validator
 
 from ..core.fields import FieldSpec, Relation
 from ..core.interfaces import Compute
 from ..core.params import ModelParams
+from ..core.traversal import PointSum
+from ..kernels import default_backend
 
 log = logging.getLogger("peridyn.computes")
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def displacement_gradient_kernel(points, offsets, neighbors, x, y, volume, bond_damage, H):
-    """H[k] (3x3, row-major in 9 entries: H_ab = du_a/dx_b) at points[k] from the intact bonds.
-    Shapes: points (p,) local indices; x, y (n, 3) L; volume (n,); bond_damage (nb,) or empty;
-    H (p, 9) dimensionless. A direction in which the family has no extent (a 2D model) gets a
-    zero gradient column."""
-    has_damage = bond_damage.shape[0] > 0
-    for k in prange(points.shape[0]):
-        i = points[k]
-        K = np.zeros((3, 3))
-        U = np.zeros((3, 3))
-        for b in range(offsets[i], offsets[i + 1]):
-            keep = 1.0 - bond_damage[b] if has_damage else 1.0
-            if keep <= 0.0:
-                continue
-            j = neighbors[b]
-            w = keep * volume[j]
-            for a in range(3):
-                ua = (y[j, a] - x[j, a]) - (y[i, a] - x[i, a])
-                xa = x[j, a] - x[i, a]
-                for c in range(3):
-                    xc = x[j, c] - x[i, c]
-                    K[a, c] += w * xa * xc
-                    U[a, c] += w * ua * xc
-        tr = K[0, 0] + K[1, 1] + K[2, 2]
-        if tr <= 0.0:
-            for a in range(9):
-                H[k, a] = 0.0
-            continue
-        for a in range(3):
-            if K[a, a] < 1.0e-10 * tr:  # no extent along a: decouple it
-                for c in range(3):
-                    K[a, c] = 0.0
-                    K[c, a] = 0.0
-                K[a, a] = tr
-        G = U @ np.linalg.inv(K)
-        for a in range(3):
+# Loop law (peridyn.core.traversal), run on reference positions: the bond context's
+# (ex, ey, ez) = xi = x_j - x_i (L). args (x, y (n, 3) reference and current positions L, V (n,)
+# L^3, bond_damage (nb,) or empty, ring (n,) uint8: 1 at the points wanted, H (n, 9) written at
+# those points: H_ab = du_a/dx_b row-major, dimensionless).
+def gradient_gate(i, b, p, args):
+    """Only the bonds of wanted points that are not broken for good (1 - d > 0) count."""
+    bond_damage, ring = args[3], args[4]
+    if ring[i] == 0:
+        return False
+    keep = 1.0 - bond_damage[b] if bond_damage.shape[0] > 0 else 1.0
+    return not keep <= 0.0
+
+
+def gradient_point(i, args):
+    """(K, U): sum_j (1-d) V_j xi (x) xi (L^5) and sum_j (1-d) V_j (u_j - u_i) (x) xi (L^5) of
+    point i, (3, 3), summed into by its bonds."""
+    return np.zeros((3, 3)), np.zeros((3, 3))
+
+
+def gradient_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """Adds the bond's (1-d) V_j xi (x) xi to K and (1-d) V_j (u_j - u_i) (x) xi to U
+    (p = (K, U)); contributes nothing to the law's own sum."""
+    x, y, volume, bond_damage, ring, H = args
+    K, U = p
+    keep = 1.0 - bond_damage[b] if bond_damage.shape[0] > 0 else 1.0
+    w = keep * volume[j]
+    xi = (ex, ey, ez)
+    for a in range(3):
+        ua = (y[j, a] - x[j, a]) - (y[i, a] - x[i, a])
+        xa = xi[a]
+        for c in range(3):
+            xc = xi[c]
+            K[a, c] += w * xa * xc
+            U[a, c] += w * ua * xc
+    return 0.0
+
+
+def gradient_finish(i, acc, p, args):
+    """H[i] = U K^-1 at a wanted point (0 where the family has no extent, tr K <= 0; a direction
+    in which it has none, K_aa < 1e-10 tr K, is decoupled and gets a zero gradient column);
+    returns tr K (L^5), 0 at the other points."""
+    x, y, volume, bond_damage, ring, H = args
+    if ring[i] == 0:
+        return 0.0
+    K, U = p
+    tr = K[0, 0] + K[1, 1] + K[2, 2]
+    if tr <= 0.0:
+        for a in range(9):
+            H[i, a] = 0.0
+        return tr
+    for a in range(3):
+        if K[a, a] < 1.0e-10 * tr:  # no extent along a: decouple it
             for c in range(3):
-                H[k, 3 * a + c] = G[a, c]
+                K[a, c] = 0.0
+                K[c, a] = 0.0
+            K[a, a] = tr
+    G = U @ np.linalg.inv(K)
+    for a in range(3):
+        for c in range(3):
+            H[i, 3 * a + c] = G[a, c]
+    return tr
+
+
+DISPLACEMENT_GRADIENT = PointSum(gradient_term, point=gradient_point, finish=gradient_finish, gate=gradient_gate)
+
+
+def displacement_gradient(points, offsets, neighbors, zeta, x, y, volume, bond_damage, backend=None):
+    """H (p, 9) at the local points ``points`` (p > 0) from their intact bonds (the law
+    DISPLACEMENT_GRADIENT). Shapes: zeta (nb,) bond lengths (L); x, y (n, 3) L; volume (n,);
+    bond_damage (nb,) or empty."""
+    n = x.shape[0]
+    ring = np.zeros(n, dtype=np.uint8)
+    ring[points] = 1
+    H = np.zeros((n, 9))
+    kernel = (backend or default_backend()).kernel(DISPLACEMENT_GRADIENT)
+    kernel(int(points.min()), int(points.max()) + 1, offsets, neighbors, zeta, x, (x, y, volume, bond_damage, ring, H), np.zeros(n))
+    return H[points]
 
 
 def hooke(H: np.ndarray, E: float, nu: float, mode: str) -> tuple[np.ndarray, np.ndarray]:
@@ -199,8 +238,8 @@ class JIntegralDomain(Compute):
         for pts, dq, E, nu, mode in self.groups:
             if not pts.size:
                 continue
-            H = np.zeros((pts.size, 9))
-            displacement_gradient_kernel(pts, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Coordinates"], s["Volume"], damage, H)
+            H = displacement_gradient(pts, nl.offsets, nl.neighbors, s["Bond_Length"], s["Model_Coordinates"], s["Coordinates"], s["Volume"],
+                                      damage, getattr(sim, "backend", None))
             H = H.reshape(-1, 3, 3)
             sig, W = hooke(H, E, nu, mode)
             du_de = H @ self.e  # (p, 3): u_a,c e_c

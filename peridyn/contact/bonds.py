@@ -14,9 +14,12 @@ from typing import Any
 import numpy as np
 from numba import njit, prange
 
+from ..core.traversal import PointSum
+from ..kernels import default_backend
 from .search import in_sorted
 
 
+# not a loop law: one binary search per (row, key) query, not a traversal of the row's bonds
 @njit(cache=True, parallel=True)
 def has_bond_kernel(rows, keys, offsets, neighbors, gid, out):
     """out[k] = whether row rows[k] holds a neighbor whose gid is keys[k] (rows sorted by gid)."""
@@ -24,15 +27,31 @@ def has_bond_kernel(rows, keys, offsets, neighbors, gid, out):
         out[k] = in_sorted(neighbors, offsets[rows[k]], offsets[rows[k] + 1], keys[k], gid)
 
 
-@njit(cache=True, parallel=True)
+# Loop law (peridyn.core.traversal). args (bond_length (nb,) L, volume (n,) L^3, rc L).
+def short_bond_gate(i, b, p, args):
+    """Only the bonds shorter than the contact radius count."""
+    return args[0][b] < args[2]
+
+
+def partner_volume_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """V_j (L^3)."""
+    return args[1][j]
+
+
+def partner_volume_finish(i, acc, p, args):
+    """max(V_i, acc) (L^3)."""
+    return max(args[1][i], acc)
+
+
+PARTNER_VOLUME = PointSum(partner_volume_term, finish=partner_volume_finish, gate=short_bond_gate)
+
+
 def partner_volume_kernel(n, offsets, neighbors, bond_length, volume, rc, out):
-    """out[i] = max(V_i, sum of V_j over bonds of i shorter than rc)."""
-    for i in prange(n):
-        s = 0.0
-        for b in range(offsets[i], offsets[i + 1]):
-            if bond_length[b] < rc:
-                s += volume[neighbors[b]]
-        out[i] = max(volume[i], s)
+    """out[i] = max(V_i, sum of V_j over bonds of i shorter than rc) for the points [0, n) (the
+    law PARTNER_VOLUME; reads no positions). Shapes: offsets (>= n+1,), neighbors, bond_length
+    (nb,); volume (n_local,) L^3; out (>= n,) L^3."""
+    y = np.zeros((volume.shape[0], 3))  # the law reads no geometry
+    default_backend().kernel(PARTNER_VOLUME)(0, n, offsets, neighbors, bond_length, y, (bond_length, volume, float(rc)), out)
 
 
 def _has_bond(rows: np.ndarray, keys: np.ndarray, bonds, gid: np.ndarray) -> np.ndarray:

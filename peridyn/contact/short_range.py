@@ -100,6 +100,7 @@ def _visit_term(p, j, delta, y, v, volume, rc, rc2, k, mu):
     return True, nx + 0.0, ny + 0.0, nz + 0.0
 
 
+# not a loop law: each point passes over its pair row several times, in Peridigm's scatter order (per block, by gid)
 @njit(cache=True, parallel=True, error_model="numpy")
 def short_range_force_kernel(num_owned, offsets, partners, visits, gid, block, horizon, y, v, volume, rc, k, mu, out):
     """out[p] += the contact force density on every owned point p (gather; see the module
@@ -159,6 +160,7 @@ def short_range_force_kernel(num_owned, offsets, partners, visits, gid, block, h
         out[p, 2] += fz
 
 
+# not a loop law: one running sum over every pair of every point (a global reduction in serial order)
 @njit(cache=True)
 def short_range_energy_kernel(num_owned, offsets, partners, visits, horizon, y, volume, rc, k):
     """sum over the visits i -> j of owned i of V_i V_j (9 k / (pi delta_i^5)) (R_c - d)^2 / 2,

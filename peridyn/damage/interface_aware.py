@@ -31,60 +31,71 @@ from __future__ import annotations
 import logging
 
 import numpy as np
-from numba import njit, prange
 from pydantic import Field
 
 from ..core.bondmath import stretch_exceeds
 from ..core.fields import FieldSpec, Relation, Temporal
 from ..core.interfaces import BlockView, DamageModel
 from ..core.params import ModelParams
+from ..core.traversal import PointSum
+from ..kernels import compiled, default_backend
 
 log = logging.getLogger("peridyn.damage")
 EMPTY = np.zeros(0)
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+# Loop law (peridyn.core.traversal). Bond context (i, j, b, ex, ey, ez, L, z, p, args):
+# (ex, ey, ez) = y_j - y_i, L = |y_j - y_i| (L) current, z = |xi| (L). args (s_c, critical, d_n,
+# d_np1, dT, alpha_T, deficient, new, offsets): s_c this block's critical stretch; critical (n,)
+# Critical_Stretch of every local point; d_n, d_np1 (nb,) bond damage (uint8); dT (n,) or empty;
+# deficient, new (n,) uint8 flags (new: set for points found now); offsets (n+1,) the CSR rows.
+def interface_aware_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """d = max(d_np1, d_n), set to 1 when the bond is intact, j has a critical stretch and
+    s = (L - a_T dT_i z - z) / z > min(s_c, s_c,j) (strict); written to d_np1[b] and returned."""
+    s_c, critical, d_n, d_np1, dT, alpha_T, deficient, new, offsets = args
+    d = float(d_np1[b])
+    dn = float(d_n[b])
+    d = max(d, dn)
+    s_j = critical[j]
+    if d == 0.0 and s_j != 0.0:
+        s_min = min(s_c, s_j)
+        if dT.shape[0] > 0:
+            broken = ((L - (alpha_T * dT[i]) * z) - z) / z > s_min
+        else:
+            broken = stretch_exceeds(ex * ex + ey * ey + ez * ez, z, s_min)
+        if broken:
+            d = 1.0
+    d_np1[b] = d
+    return d
+
+
+def rank_deficiency_finish(i, total, p, args):
+    """Damage_i = broken bonds / bonds (total: the sum of the bonds' d), after the
+    rank-deficiency rule: a point not yet flagged with at most two intact bonds
+    (total >= n_i - 2) gets every bond broken and deficient[i] = new[i] = 1."""
+    s_c, critical, d_n, d_np1, dT, alpha_T, deficient, new, offsets = args
+    lo = offsets[i]
+    hi = offsets[i + 1]
+    n = hi - lo
+    if total >= n - 2 and deficient[i] == 0:
+        deficient[i] = 1
+        new[i] = 1
+        for b in range(lo, hi):
+            d_np1[b] = 1.0
+        total = float(n)
+    return total / n if n > 0 else 0.0
+
+
+INTERFACE_AWARE = PointSum(interface_aware_term, finish=rank_deficiency_finish)
+
+
 def interface_aware_kernel(start, stop, offsets, neighbors, zeta, y, s_c, critical, d_n, d_np1, dT, alpha_T, deficient, new, damage):
     """Update the bond damage d_np1 (never reset; N values kept) and the Damage of the points
-    [start, stop); apply the rank-deficiency rule. Shapes: zeta (nb,) reference bond lengths (L);
-    y (n, 3) (L); critical (n,) Critical_Stretch of every local point; d_n, d_np1 (nb,);
-    dT (n,) or empty; deficient, new (n,) uint8 flags (new: set here for points found now);
-    damage (n,). s_c is this block's critical stretch."""
-    thermal = dT.shape[0] > 0
-    for i in prange(start, stop):
-        lo = offsets[i]
-        hi = offsets[i + 1]
-        total = 0.0
-        for b in range(lo, hi):
-            d = float(d_np1[b])
-            dn = float(d_n[b])
-            d = max(d, dn)
-            j = neighbors[b]
-            s_j = critical[j]
-            if d == 0.0 and s_j != 0.0:
-                s_min = min(s_c, s_j)
-                L0 = zeta[b]
-                c0 = y[i, 0] - y[j, 0]
-                c1 = y[i, 1] - y[j, 1]
-                c2 = y[i, 2] - y[j, 2]
-                L2 = c0 * c0 + c1 * c1 + c2 * c2
-                if thermal:
-                    L = np.sqrt(L2) - (alpha_T * dT[i]) * L0
-                    broken = (L - L0) / L0 > s_min
-                else:
-                    broken = stretch_exceeds(L2, L0, s_min)
-                if broken:
-                    d = 1.0
-            d_np1[b] = d
-            total += d
-        n = hi - lo
-        if total >= n - 2 and deficient[i] == 0:
-            deficient[i] = 1
-            new[i] = 1
-            for b in range(lo, hi):
-                d_np1[b] = 1.0
-            total = float(n)
-        damage[i] = total / n if n > 0 else 0.0
+    [start, stop); apply the rank-deficiency rule: the law INTERFACE_AWARE with the arguments of
+    the hand-written kernel it replaced (callers without a BlockView). Shapes: zeta (nb,)
+    reference bond lengths (L); y (n, 3) (L); damage (n,); the rest as in the law's args."""
+    args = (s_c, critical, d_n, d_np1, dT, alpha_T, deficient, new, offsets)
+    default_backend().kernel(INTERFACE_AWARE)(start, stop, offsets, neighbors, zeta, y, args, damage)
 
 
 class InterfaceAwareParams(ModelParams):
@@ -133,10 +144,10 @@ class InterfaceAware(DamageModel):
             self.rank_deficient = np.zeros(s.num_points, dtype=np.uint8)
             self._new = np.zeros(s.num_points, dtype=np.uint8)
         dT = s["Temperature_Change"] if self.alpha_T is not None else EMPTY
-        interface_aware_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], self.s_c, s["Critical_Stretch"],
-            s.n("Bond_Damage"), s["Bond_Damage"], dT, float(self.alpha_T or 0.0), self.rank_deficient, self._new, s["Damage"],
-        )
+        args = (self.s_c, s["Critical_Stretch"], s.n("Bond_Damage"), s["Bond_Damage"], dT, float(self.alpha_T or 0.0), self.rank_deficient,
+                self._new, nl.offsets)
+        compiled(block, INTERFACE_AWARE)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args,
+                                         s["Damage"])
         found = np.flatnonzero(self._new[block.start : block.stop]) + block.start
         if not found.size:
             return

@@ -24,49 +24,73 @@ from __future__ import annotations
 
 import math
 
-from numba import njit, prange
+import numpy as np
 from pydantic import Field, model_validator
 
 from ..core.fields import FieldSpec, Relation, Temporal
 from ..core.influence import omega
 from ..core.interfaces import BlockView
 from ..core.params import ModelParams
-from .von_mises_stress import EMPTY, BondStressDamage
+from ..core.traversal import PointSum
+from ..kernels import compiled, default_backend
+from .von_mises_stress import EMPTY, BondStressDamage, neighbor_volume
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+# Loop law (peridyn.core.traversal). Bond context (i, j, b, ex, ey, ez, L, z, p, args):
+# (ex, ey, ez) = y_j - y_i, L = |y_j - y_i| (L) in the current configuration. args (V, J, horizon,
+# kind, m_u, eqps_n, eqps_np1, triax, d1, d2, d3, D_th, neglect, P_n, P_np1, d_np1, damage, flag):
+# V, horizon, m_u, damage, flag (n,); J (n,) or empty (J = 1); eqps_n, eqps_np1, triax, P_n, P_np1,
+# d_np1 (nb,) bond equivalent plastic strains, stress triaxiality, damage parameter, bond damage.
+def damage_sum_point(i, args):
+    """Starts Damage_i (args[16]), which the bonds add to one at a time."""
+    args[16][i] = 0.0
+    return 0.0
+
+
+def johnson_cook_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """Damage parameter D = min(1, D_n + max(0, deqps / eps_f)) written to P_np1[b], bond damage
+    d = (D - D_th)/(1 - D_th) above D_th (else 0) written to d_np1[b]; adds the bond's share
+    ((D omega) / m_u,i) J_j V_j to Damage_i and returns ((d omega) / m_u,i) J_j V_j (the share of
+    Broken_Bond_Volume_Averaged); omega = omega(|eta|, delta_i). No share while m_u,i = 0
+    (before the material's first precompute; Peridigm: 0/0)."""
+    (volume, J, horizon, kind, m_u, eqps_n, eqps_np1, triax, d1, d2, d3, D_th, neglect, P_n, P_np1, d_np1, damage,
+     flag) = args
+    D = P_n[b]
+    deqps = eqps_n[b] - eqps_np1[b]
+    eps_f = d1 + d2 * math.exp(-d3 * triax[b])
+    inc = deqps / eps_f
+    if inc > 0.0:
+        D += inc
+    D = min(1.0, D)
+    P_np1[b] = D
+    d = (D - D_th) / (1.0 - D_th) if D > D_th else 0.0
+    d_np1[b] = d
+    Vj = neighbor_volume(j, volume, J)
+    w = omega(kind, L, horizon[i], EMPTY, b)
+    if m_u[i] > 0.0:
+        damage[i] += ((D * w) / m_u[i]) * Vj
+        return ((d * w) / m_u[i]) * Vj
+    return 0.0
+
+
+def johnson_cook_finish(i, acc, p, args):
+    """Broken_Bond_Volume_Averaged = acc (returned); Flying_Point_Flag = 1 above ``neglect``
+    (args[12]), else -1 (written to flag[i], args[17])."""
+    args[17][i] = 1.0 if acc > args[12] else -1.0
+    return acc
+
+
+JOHNSON_COOK = PointSum(johnson_cook_term, point=damage_sum_point, finish=johnson_cook_finish)
+
+
 def johnson_cook_kernel(start, stop, offsets, neighbors, y, volume, J, horizon, kind, m_u, eqps_n, eqps_np1, triax, d1, d2, d3,
                         D_th, neglect, P_n, P_np1, d_np1, damage, bbva, flag):
     """Damage parameter P_np1, bond damage d_np1 (nb,), Damage, Broken_Bond_Volume_Averaged bbva
-    and Flying_Point_Flag flag (n,) of the points [start, stop). eqps_n, eqps_np1, triax (nb,)
-    bond equivalent plastic strains and stress triaxiality; J (n,) or empty (J = 1)."""
-    has_J = J.shape[0] > 0
-    for i in prange(start, stop):
-        acc_D = 0.0
-        acc_d = 0.0
-        for b in range(offsets[i], offsets[i + 1]):
-            D = P_n[b]
-            deqps = eqps_n[b] - eqps_np1[b]
-            eps_f = d1 + d2 * math.exp(-d3 * triax[b])
-            inc = deqps / eps_f
-            if inc > 0.0:
-                D += inc
-            D = min(1.0, D)
-            P_np1[b] = D
-            d = (D - D_th) / (1.0 - D_th) if D > D_th else 0.0
-            d_np1[b] = d
-            j = neighbors[b]
-            Vj = J[j] * volume[j] if has_J else volume[j]
-            ex = y[j, 0] - y[i, 0]
-            ey = y[j, 1] - y[i, 1]
-            ez = y[j, 2] - y[i, 2]
-            w = omega(kind, math.sqrt(ex * ex + ey * ey + ez * ez), horizon[i], EMPTY, b)
-            if m_u[i] > 0.0:  # 0 before the material's first precompute (Peridigm: 0/0)
-                acc_D += ((D * w) / m_u[i]) * Vj
-                acc_d += ((d * w) / m_u[i]) * Vj
-        damage[i] = acc_D
-        bbva[i] = acc_d
-        flag[i] = 1.0 if acc_d > neglect else -1.0
+    and Flying_Point_Flag flag (n,) of the points [start, stop): the law JOHNSON_COOK with the
+    arguments of the hand-written kernel it replaced (callers without a BlockView). y (n, 3)
+    current positions (L)."""
+    args = (volume, J, horizon, kind, m_u, eqps_n, eqps_np1, triax, d1, d2, d3, D_th, neglect, P_n, P_np1, d_np1, damage, flag)
+    default_backend().kernel(JOHNSON_COOK)(start, stop, offsets, neighbors, np.zeros(neighbors.shape[0]), y, args, bbva)
 
 
 class JohnsonCookParams(ModelParams):
@@ -115,10 +139,9 @@ class JohnsonCook(BondStressDamage):
         s, nl = block.fields, block.bonds
         J, m_u = self._inputs(block)
         p = self.params
-        johnson_cook_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, s["Coordinates"], s["Volume"], J, s["Horizon"], block.influence.kind, m_u,
-            s.n("Bond_Equivalent_Plastic_Strain"), s.np1("Bond_Equivalent_Plastic_Strain"), s["Bond_Stress_Triaxiality"],
-            float(p.damage_parameter_1), float(p.damage_parameter_2), float(p.damage_parameter_3), float(p.threshold_damage),
-            float(p.critical_damage_to_neglect), s.n("Bond_Damage_Parameter"), s["Bond_Damage_Parameter"], s["Bond_Damage"],
-            s["Damage"], s["Broken_Bond_Volume_Averaged"], s["Flying_Point_Flag"],
-        )
+        args = (s["Volume"], J, s["Horizon"], block.influence.kind, m_u, s.n("Bond_Equivalent_Plastic_Strain"),
+                s.np1("Bond_Equivalent_Plastic_Strain"), s["Bond_Stress_Triaxiality"], float(p.damage_parameter_1),
+                float(p.damage_parameter_2), float(p.damage_parameter_3), float(p.threshold_damage), float(p.critical_damage_to_neglect),
+                s.n("Bond_Damage_Parameter"), s["Bond_Damage_Parameter"], s["Bond_Damage"], s["Damage"], s["Flying_Point_Flag"])
+        compiled(block, JOHNSON_COOK)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args,
+                                      s["Broken_Bond_Volume_Averaged"])

@@ -31,7 +31,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
 from pydantic import Field, model_validator
 
 from ..core.errors import InputError
@@ -39,76 +38,101 @@ from ..core.fields import FieldSpec, Relation, Temporal
 from ..core.influence import TABLE, omega
 from ..core.interfaces import BlockView, DamageModel
 from ..core.params import ModelParams
+from ..core.traversal import BondMap, PointSum
+from ..kernels import compiled, default_backend
 
 EMPTY = np.zeros(0)
 STRESS = "Bond_Unrotated_Cauchy_Stress"
 
 
 # ------------------------------------------------------------------------------------------------
-# kernels (offsets (n+1,), neighbors (nb,) int32; y, x (n, 3) L; volume (n,) L^3; per-bond (nb,))
+# loop laws (peridyn.core.traversal). Bond context (i, j, b, ex, ey, ez, L, z, p, args):
+# (ex, ey, ez) = y_j - y_i and L = |y_j - y_i| (L) of the positions the kernel is given, z the
+# bond's reference length (L). Shapes: y, x (n, 3) L; volume (n,) L^3; per-bond arrays (nb,);
+# per-point arrays (n,); J (n,) or empty (J = 1).
 # ------------------------------------------------------------------------------------------------
-@njit(cache=True, parallel=True, error_model="numpy")
+def bond_invariants_bond(i, j, b, ex, ey, ez, L, z, p, args):
+    """Von Mises stress sqrt((3/2) s:s) of the bond stress S[b] (M L^-1 T^-2; returned) and its
+    triaxiality ((S0 + S4) + S8)/(3 max(1e-20, vm)) written to triax[b] (skipped when triax is
+    empty); args (S (nb, 9), triax (nb,) or empty). No geometry is read."""
+    S, triax = args
+    tr = (S[b, 0] + S[b, 4]) + S[b, 8]
+    mean = tr / 3.0
+    acc = 0.0
+    for k in range(9):
+        sk = S[b, k] - mean if k % 4 == 0 else S[b, k]
+        acc += sk * sk
+    v = math.sqrt((3.0 / 2.0) * acc)
+    if triax.shape[0] > 0:
+        triax[b] = tr / (3.0 * (max(1e-20, v)))
+    return v
+
+
+def reference_weighted_volume_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """omega(|xi|, delta_i) V_j (L^3), on reference positions (y = x); args (V, horizon, kind)."""
+    volume, horizon, kind = args
+    return omega(kind, L, horizon[i], EMPTY, b) * volume[j]
+
+
+def trial_damage(r, D_crit, D_th):
+    """Trial bond damage of the stress ratio r: 1 at and above D_crit, 0 at and below D_th,
+    linear between."""
+    if r >= D_crit:
+        return 1.0
+    elif r <= D_th:
+        return 0.0
+    return (r - D_th) / (D_crit - D_th)
+
+
+def neighbor_volume(j, volume, J):
+    """J_j V_j (L^3), V_j without the Jacobian (J empty)."""
+    return J[j] * volume[j] if J.shape[0] > 0 else volume[j]
+
+
+def von_mises_damage_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """Bond damage d = max(d_n, trial(vm / sigma_c)) written to d_np1[b]; returns the bond's
+    share ((d omega(|eta|, delta_i)) / m_u,i) J_j V_j of Broken_Bond_Volume_Averaged (0 while
+    m_u,i = 0, before the material's first precompute; Peridigm: 0/0). args (V, J, horizon,
+    kind, m_u, vm, sigma_c, D_crit, D_th, neglect, d_n, d_np1, flag)."""
+    volume, J, horizon, kind, m_u, vm, sigma_c, D_crit, D_th, neglect, d_n, d_np1, flag = args
+    d = d_n[b]
+    d = max(d, trial_damage(vm[b] / sigma_c, D_crit, D_th))
+    d_np1[b] = d
+    Vj = neighbor_volume(j, volume, J)
+    w = omega(kind, L, horizon[i], EMPTY, b)
+    if m_u[i] > 0.0:
+        return ((d * w) / m_u[i]) * Vj
+    return 0.0
+
+
+def flying_point_finish(i, acc, p, args):
+    """Broken_Bond_Volume_Averaged = acc (returned); Flying_Point_Flag = 1 above ``neglect``,
+    else -1 (written to flag[i], the last of args; neglect args[-4])."""
+    args[-1][i] = 1.0 if acc > args[-4] else -1.0
+    return acc
+
+
+BOND_INVARIANTS = BondMap(bond_invariants_bond)
+REFERENCE_WEIGHTED_VOLUME = PointSum(reference_weighted_volume_term)
+VON_MISES_DAMAGE = PointSum(von_mises_damage_term, finish=flying_point_finish)
+
+
+# the laws' kernels with the arguments of the hand-written kernels they replaced (callers without a
+# BlockView: tests, tools); the models call compiled(block, LAW) themselves
 def bond_invariants_kernel(start, stop, offsets, S, vm, triax):
-    """Von Mises stress vm = sqrt((3/2) s:s) and triaxiality ((S0 + S4) + S8)/(3 max(1e-20, vm))
-    of the bond stresses S (nb, 9) of the points [start, stop) (triax skipped when empty)."""
-    want_triax = triax.shape[0] > 0
-    for i in prange(start, stop):
-        for b in range(offsets[i], offsets[i + 1]):
-            tr = (S[b, 0] + S[b, 4]) + S[b, 8]
-            p = tr / 3.0
-            acc = 0.0
-            for k in range(9):
-                sk = S[b, k] - p if k % 4 == 0 else S[b, k]
-                acc += sk * sk
-            v = math.sqrt((3.0 / 2.0) * acc)
-            vm[b] = v
-            if want_triax:
-                triax[b] = tr / (3.0 * (max(1e-20, v)))
+    """vm[b] (and triax[b], unless triax is empty) of the bond stresses S (nb, 9) of the points
+    [start, stop) (the law BOND_INVARIANTS; reads no geometry)."""
+    nb = S.shape[0]
+    default_backend().kernel(BOND_INVARIANTS)(start, stop, offsets, np.zeros(nb, np.int32), np.zeros(nb), np.zeros((max(stop, 1), 3)),
+                                              (S, triax), vm)
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def reference_weighted_volume_kernel(start, stop, offsets, neighbors, x, volume, horizon, kind, m_u):
-    """m_u,i = sum_j omega(|xi|, delta_i) V_j (L^3) for the points [start, stop)."""
-    for i in prange(start, stop):
-        acc = 0.0
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            dx = x[j, 0] - x[i, 0]
-            dy = x[j, 1] - x[i, 1]
-            dz = x[j, 2] - x[i, 2]
-            acc += omega(kind, math.sqrt(dx * dx + dy * dy + dz * dz), horizon[i], EMPTY, b) * volume[j]
-        m_u[i] = acc
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
 def von_mises_damage_kernel(start, stop, offsets, neighbors, y, volume, J, horizon, kind, m_u, vm, sigma_c, D_crit, D_th,
                             neglect, d_n, d_np1, bbva, flag):
-    """Bond damage d_np1 = max(d_n, trial(vm / sigma_c)), Broken_Bond_Volume_Averaged bbva and
-    Flying_Point_Flag flag of the points [start, stop). J (n,) or empty (J = 1)."""
-    has_J = J.shape[0] > 0
-    for i in prange(start, stop):
-        acc = 0.0
-        for b in range(offsets[i], offsets[i + 1]):
-            r = vm[b] / sigma_c
-            if r >= D_crit:
-                trial = 1.0
-            elif r <= D_th:
-                trial = 0.0
-            else:
-                trial = (r - D_th) / (D_crit - D_th)
-            d = d_n[b]
-            d = max(d, trial)
-            d_np1[b] = d
-            j = neighbors[b]
-            Vj = J[j] * volume[j] if has_J else volume[j]
-            ex = y[j, 0] - y[i, 0]
-            ey = y[j, 1] - y[i, 1]
-            ez = y[j, 2] - y[i, 2]
-            w = omega(kind, math.sqrt(ex * ex + ey * ey + ez * ez), horizon[i], EMPTY, b)
-            if m_u[i] > 0.0:  # 0 before the material's first precompute (Peridigm: 0/0)
-                acc += ((d * w) / m_u[i]) * Vj
-        bbva[i] = acc
-        flag[i] = 1.0 if acc > neglect else -1.0
+    """Bond damage d_np1, Broken_Bond_Volume_Averaged bbva and Flying_Point_Flag flag of the
+    points [start, stop) (the law VON_MISES_DAMAGE). y (n, 3) current positions (L)."""
+    args = (volume, J, horizon, kind, m_u, vm, sigma_c, D_crit, D_th, neglect, d_n, d_np1, flag)
+    default_backend().kernel(VON_MISES_DAMAGE)(start, stop, offsets, neighbors, np.zeros(neighbors.shape[0]), y, args, bbva)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -162,8 +186,8 @@ class BondStressDamage(DamageModel):
         if "Undamaged_Weighted_Volume" not in s:
             if self._m_u is None or self._m_u.shape[0] != s.num_points:
                 self._m_u = np.zeros(s.num_points)
-            reference_weighted_volume_kernel(lo, hi, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Volume"], s["Horizon"],
-                                             block.influence.kind, self._m_u)
+            compiled(block, REFERENCE_WEIGHTED_VOLUME)(lo, hi, nl.offsets, nl.neighbors, s["Bond_Length"], s["Model_Coordinates"],
+                                                       (s["Volume"], s["Horizon"], block.influence.kind), self._m_u)
 
     def _inputs(self, block: BlockView) -> tuple[np.ndarray, np.ndarray]:
         """(J at N or empty, m_u) and the bond invariants of the stress the material wrote last
@@ -172,8 +196,9 @@ class BondStressDamage(DamageModel):
         # the material writes its bond stress into the NP1 array of the evaluation; the last one it
         # wrote is the array that was NP1 at the previous update (N after a completed step)
         src = self._last_stress if self._last_stress is not None else s.np1(STRESS)
-        bond_invariants_kernel(block.start, block.stop, nl.offsets, src, s["Bond_Von_Mises_Stress"],
-                               s["Bond_Stress_Triaxiality"] if self.needs_triaxiality else EMPTY)
+        triax = s["Bond_Stress_Triaxiality"] if self.needs_triaxiality else EMPTY
+        compiled(block, BOND_INVARIANTS)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], (src, triax),
+                                         s["Bond_Von_Mises_Stress"])
         self._last_stress = s.np1(STRESS)
         J = s.n("Jacobian_Determinant") if "Jacobian_Determinant" in s else EMPTY
         m_u = s.get("Undamaged_Weighted_Volume", self._m_u)
@@ -205,10 +230,9 @@ class VonMisesStress(BondStressDamage):
         s, nl = block.fields, block.bonds
         J, m_u = self._inputs(block)
         p = self.params
-        von_mises_damage_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, s["Coordinates"], s["Volume"], J, s["Horizon"], block.influence.kind,
-            m_u, s["Bond_Von_Mises_Stress"], float(p.critical_von_mises_stress), float(p.critical_damage), float(p.threshold_damage),
-            float(p.critical_damage_to_neglect), s.n("Bond_Damage"), s["Bond_Damage"], s["Broken_Bond_Volume_Averaged"],
-            s["Flying_Point_Flag"],
-        )
+        args = (s["Volume"], J, s["Horizon"], block.influence.kind, m_u, s["Bond_Von_Mises_Stress"], float(p.critical_von_mises_stress),
+                float(p.critical_damage), float(p.threshold_damage), float(p.critical_damage_to_neglect), s.n("Bond_Damage"),
+                s["Bond_Damage"], s["Flying_Point_Flag"])
+        compiled(block, VON_MISES_DAMAGE)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args,
+                                          s["Broken_Bond_Volume_Averaged"])
         s["Damage"][block.start : block.stop] = s["Broken_Bond_Volume_Averaged"][block.start : block.stop]
