@@ -11,7 +11,7 @@ from ..core.fields import FieldSpec, Relation
 from ..core.influence import TABLE, omega
 from ..core.interfaces import Compute
 from ..core.traversal import PointSum
-from ..kernels import default_backend
+
 
 log = logging.getLogger("peridyn.computes")
 
@@ -107,7 +107,7 @@ class DeformationGradient(Compute):
         Kinv = np.zeros((sim.num_local, 9))
         singular = np.zeros(sim.num_local, dtype=np.int8)
         s = sim.fields
-        kernel = (getattr(sim, "backend", None) or default_backend()).kernel(DEFORMATION_GRADIENT)
+        kernel = sim.backend.kernel(DEFORMATION_GRADIENT)
         args = (s["Coordinates"], s["Volume"], sim.horizon_local, sim.influence.kind, self.table, F, Kinv, singular)
         kernel(0, n, sim.bonds.offsets, sim.bonds.neighbors, s["Bond_Length"], s["Model_Coordinates"], args, np.zeros(sim.num_local))
         if singular[:n].any() and not self._warned:

@@ -82,7 +82,7 @@ class NeighborhoodVolume(_Constant):
         nl = sim.bonds
         vol = sim.fields["Volume"]
         weights = vol[nl.neighbors]
-        nodes = getattr(sim, "element_nodes", None)
+        nodes = sim.element_nodes
         if "Neighbor_Volume" in sim.fields:
             weights = sim.fields["Neighbor_Volume"]
         elif nodes is not None:  # partial volumes, computed here only (no bond field is kept)
@@ -94,7 +94,7 @@ class NeighborhoodVolume(_Constant):
         out = vol[: nl.num_points].copy()
         s = sim.fields
         sequential_row_sum(nl.offsets, nl.neighbors, s["Bond_Length"], s["Model_Coordinates"], np.ascontiguousarray(weights, float), out,
-                           getattr(sim, "backend", None))
+                           sim.backend)
         return out
 
 

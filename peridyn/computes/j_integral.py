@@ -239,7 +239,7 @@ class JIntegralDomain(Compute):
             if not pts.size:
                 continue
             H = displacement_gradient(pts, nl.offsets, nl.neighbors, s["Bond_Length"], s["Model_Coordinates"], s["Coordinates"], s["Volume"],
-                                      damage, getattr(sim, "backend", None))
+                                      damage, sim.backend)
             H = H.reshape(-1, 3, 3)
             sig, W = hooke(H, E, nu, mode)
             du_de = H @ self.e  # (p, 3): u_a,c e_c
