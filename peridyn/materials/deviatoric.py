@@ -21,10 +21,18 @@ evaluation): trial t^tr = alpha (e^d - e^dp_N); its norm ||t^tr||^2 = sum_j ((1-
 perfect plasticity scales t^d onto the yield surface, hardening solves Peridigm's cubic for
 d lambda (:func:`update_delta_lambda`).
 
-Force paths: ``*_force_state_kernel`` writes the force states of a view's own bonds (the
-engine gathers both ends); ``*_fused_kernel`` computes both ends of every bond of a closed block
-in one pass, reading the far end's state through the reverse bond. Tangents:
-:mod:`peridyn.materials.deviatoric_tangents`.
+Loops: the force paths are loop laws (:mod:`peridyn.core.traversal`, compiled by the run's
+backend): the dilatation is Elastic's ``DILATATION`` law (no thermal strain); plasticity first
+runs ``PLASTIC_POINTS`` (a :class:`PointSum` of the trial norm whose ``finish`` does the return
+map, writes lambda_NP1 and keeps each point's return-map data in a (n, 6) array), then either
+``PLASTIC_FORCE_STATE`` (a :class:`BondMap`: the force states of a view's own bonds, which the
+engine gathers at both ends) or ``PLASTIC_PAIR_FORCE`` (a :class:`PairForce`: both ends of every
+bond of a closed block in one pass, the far end's state read through the reverse bond);
+viscoelasticity has ``VISCO_FORCE_STATE`` and ``VISCO_PAIR_FORCE``. The per-point helpers with
+their own bond loops (``point_theta``, ``plastic_point``, ``plastic_bonds``, ``visco_bonds``)
+serve the tangents' probes (:mod:`peridyn.materials.deviatoric_tangents`), which run inside one
+parallel iteration on a private copy of a family; they do the laws' arithmetic through the same
+bond helpers (``trial_square``, ``return_map``, ``plastic_td``, ``visco_t``).
 
 Kernels take flat arrays: x, y (n, 3) L; volume (n,) L^3; offsets (n+1,), neighbors (nb,);
 bond arrays (nb,); point arrays (n,). An empty ``bond_damage`` means no damage model.
@@ -35,15 +43,16 @@ import math
 from typing import Any, ClassVar
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 from pydantic import Field, model_validator
 
 from ..core.fields import FieldSpec, Relation, Temporal
 from ..core.influence import omega
 from ..core.interfaces import BlockView, ElasticModuli, Material
 from ..core.params import UsedWhen
+from ..core.traversal import BondMap, PairForce, PointSum
 from ..kernels import compiled
-from .elastic import WEIGHTED_VOLUME
+from .elastic import DILATATION, WEIGHTED_VOLUME
 from .moduli import IsotropicElasticParams, isotropic_moduli
 
 EMPTY = np.zeros(0)
@@ -53,6 +62,7 @@ PERFECT, HARDENING, VISCO = 0, 1, 2  # model switch of the finite-difference tan
 # ------------------------------------------------------------------------------------------------
 # per-point pieces
 # ------------------------------------------------------------------------------------------------
+# not a loop law: per-point helper of the tangents' probes (one family inside a parallel iteration); the loop law is Elastic's DILATATION
 @njit(cache=True, inline="always", error_model="numpy")
 def point_theta(i, offsets, neighbors, zeta, y, volume, m_i, omega_kind, delta, omega_table, bond_damage):
     """theta_i = sum_j 3 omega (1-d) zeta e V_j / m_i (Peridigm's computeDilatation, no thermal
@@ -100,6 +110,37 @@ def update_delta_lambda(n, lam_n, Yp, alpha, H):
     return max(val, 0.0)
 
 
+@njit(cache=True, inline="always", error_model="numpy")
+def trial_square(L, z, theta, alpha, keep, edp_n):
+    """((1-d) t^tr)^2 of one bond (M^2 L^-10 T^-4): deformed length L and reference length z
+    (L), owner dilatation theta and alpha (M L^-6 T^-2), keep = 1 - d, e^dp_N (L); omega = 1."""
+    ed = (L - z) - (theta * z) / 3.0
+    tt = ((keep * alpha) * 1.0) * (ed - edp_n)
+    return tt * tt
+
+
+@njit(cache=True, error_model="numpy")
+def return_map(norm2, alpha, s, Y, H, hardening, lam_n):
+    """(n, d lambda, plastic) of a point from its trial norm squared norm2 = ||t^tr||^2: n =
+    ||t^tr||, plastic iff n^2 / 2 > Y_p = s^2 Y; d lambda from Peridigm's cubic with modulus H
+    (``hardening``) or perfect plasticity, 0 when elastic."""
+    n = math.sqrt(norm2)
+    Yp = (s * s) * Y
+    f = (n * n) / 2.0 - Yp
+    dlam = 0.0
+    plastic = False
+    if f > 0.0:
+        if hardening:
+            dlam = update_delta_lambda(n, lam_n, Yp, alpha, H)
+            dlam = max(dlam, 0.0)
+            plastic = dlam > 0.0
+        else:
+            dlam = (n / math.sqrt(2.0 * Yp) - 1.0) / alpha
+            plastic = True
+    return n, dlam, plastic
+
+
+# not a loop law: per-point helper of the tangents' probes (one family inside a parallel iteration); the loop law is PLASTIC_POINTS
 @njit(cache=True, error_model="numpy")
 def plastic_point(i, offsets, neighbors, zeta, y, volume, m_i, theta_i, K, mu, s, Y, H, hardening, bond_damage, edp_n, lam_n):
     """Trial norm and yield decision of point i: (alpha, c, n, d lambda, plastic) with
@@ -119,23 +160,9 @@ def plastic_point(i, offsets, neighbors, zeta, y, volume, m_i, theta_i, K, mu, s
         ey = y[j, 1] - y[i, 1]
         ez = y[j, 2] - y[i, 2]
         L = math.sqrt(ex * ex + ey * ey + ez * ez)
-        ed = (L - z) - (theta_i * z) / 3.0
         keep = 1.0 - bond_damage[b] if has_damage else 1.0
-        tt = ((keep * alpha) * 1.0) * (ed - edp_n[b])
-        norm2 += (tt * tt) * volume[j]
-    n = math.sqrt(norm2)
-    Yp = (s * s) * Y
-    f = (n * n) / 2.0 - Yp
-    dlam = 0.0
-    plastic = False
-    if f > 0.0:
-        if hardening:
-            dlam = update_delta_lambda(n, lam_n, Yp, alpha, H)
-            dlam = max(dlam, 0.0)
-            plastic = dlam > 0.0
-        else:
-            dlam = (n / math.sqrt(2.0 * Yp) - 1.0) / alpha
-            plastic = True
+        norm2 += trial_square(L, z, theta_i, alpha, keep, edp_n[b]) * volume[j]
+    n, dlam, plastic = return_map(norm2, alpha, s, Y, H, hardening, lam_n)
     return alpha, c, n, dlam, plastic
 
 
@@ -151,6 +178,7 @@ def plastic_td(L, z, theta, alpha, n, dlam, plastic, root, hardening, edp_n):
     return td, edp_n + td * dlam
 
 
+# not a loop law: per-point helper of the tangents' probes (one family inside a parallel iteration); the loop law is PLASTIC_FORCE_STATE
 @njit(cache=True, error_model="numpy")
 def plastic_bonds(i, shift, offsets, neighbors, zeta, y, theta_i, alpha, c, n, dlam, plastic, Yp, hardening, bond_damage, edp_n, t, edp_np1):
     """Second pass of point i: t[b - shift] (force state, M L^-5 T^-2) and edp_np1[b - shift]
@@ -167,79 +195,6 @@ def plastic_bonds(i, shift, offsets, neighbors, zeta, y, theta_i, alpha, c, n, d
         td, edp_np1[b - shift] = plastic_td(L, z, theta_i, alpha, n, dlam, plastic, root, hardening, edp_n[b])
         keep = 1.0 - bond_damage[b] if has_damage else 1.0
         t[b - shift] = keep * (c * z + keep * td)
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
-def plastic_points_kernel(start, stop, offsets, neighbors, zeta, y, volume, m, theta, K, mu, scf, Y, H, hardening, bond_damage, edp_n, lam_n, lam_np1, pp):
-    """Return-map data of the points [start, stop) for the fused kernel: pp[i] = (alpha, c, n,
-    d lambda, plastic (1/0), sqrt(2 Y_p) of a perfectly plastic step), and lam_np1[i]."""
-    has_scf = scf.shape[0] > 0
-    for i in prange(start, stop):
-        s = scf[i] if has_scf else 1.0
-        alpha, c, n, dlam, plastic = plastic_point(i, offsets, neighbors, zeta, y, volume, m[i], theta[i], K, mu, s, Y, H, hardening, bond_damage, edp_n, lam_n[i])
-        lam_np1[i] = lam_n[i] + dlam if plastic else lam_n[i]
-        pp[i, 0] = alpha
-        pp[i, 1] = c
-        pp[i, 2] = n
-        pp[i, 3] = dlam
-        pp[i, 4] = 1.0 if plastic else 0.0
-        pp[i, 5] = math.sqrt(2.0 * ((s * s) * Y)) if plastic and not hardening else 0.0
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
-def plastic_fused_kernel(start, stop, offsets, neighbors, reverse, zeta, y, volume, theta, pp, hardening, bond_damage, edp_n, edp_np1, f):
-    """f_i = sum_j (t_ij + t_ji) (eta/|eta|) V_j for i in [start, stop), both ends of every bond
-    computed here (closed block: ``reverse`` gives the bond j->i, whose damage and e^dp_N the far
-    end uses), and e^dp_NP1 of i's own bonds. pp from :func:`plastic_points_kernel`."""
-    has_damage = bond_damage.shape[0] > 0
-    for i in prange(start, stop):
-        fx = 0.0
-        fy = 0.0
-        fz = 0.0
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            rb = reverse[b]
-            z = zeta[b]
-            ex = y[j, 0] - y[i, 0]
-            ey = y[j, 1] - y[i, 1]
-            ez = y[j, 2] - y[i, 2]
-            L = math.sqrt(ex * ex + ey * ey + ez * ez)
-            td_i, edp_np1[b] = plastic_td(L, z, theta[i], pp[i, 0], pp[i, 2], pp[i, 3], pp[i, 4] != 0.0, pp[i, 5], hardening, edp_n[b])
-            td_j, _ = plastic_td(L, zeta[rb], theta[j], pp[j, 0], pp[j, 2], pp[j, 3], pp[j, 4] != 0.0, pp[j, 5], hardening, edp_n[rb])
-            k_i = 1.0 - bond_damage[b] if has_damage else 1.0
-            k_j = 1.0 - bond_damage[rb] if has_damage else 1.0
-            t = k_i * (pp[i, 1] * z + k_i * td_i) + k_j * (pp[j, 1] * zeta[rb] + k_j * td_j)
-            if L > 0.0:
-                s = (t * volume[j]) / L
-                fx += s * ex
-                fy += s * ey
-                fz += s * ez
-        f[i, 0] = fx
-        f[i, 1] = fy
-        f[i, 2] = fz
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
-def dilatation_kernel(start, stop, offsets, neighbors, zeta, y, volume, m, omega_kind, delta, omega_table, bond_damage, theta):
-    """theta[i] (dimensionless) of the points [start, stop) (:func:`point_theta`)."""
-    for i in prange(start, stop):
-        theta[i] = point_theta(i, offsets, neighbors, zeta, y, volume, m[i], omega_kind, delta, omega_table, bond_damage)
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
-def plastic_force_state_kernel(
-    start, stop, offsets, neighbors, zeta, y, volume, m, theta, K, mu, scf, Y, H, hardening, bond_damage, edp_n, lam_n, t, edp_np1, lam_np1,
-):
-    """Force state t (nb,) of the bonds of points [start, stop), and their new plastic state:
-    edp_np1 (nb,) (L), lam_np1 (n,). scf (n,) shear correction factors or empty (1)."""
-    has_scf = scf.shape[0] > 0
-    for i in prange(start, stop):
-        s = scf[i] if has_scf else 1.0
-        alpha, c, n, dlam, plastic = plastic_point(
-            i, offsets, neighbors, zeta, y, volume, m[i], theta[i], K, mu, s, Y, H, hardening, bond_damage, edp_n, lam_n[i]
-        )
-        lam_np1[i] = lam_n[i] + dlam if plastic else lam_n[i]
-        plastic_bonds(i, 0, offsets, neighbors, zeta, y, theta[i], alpha, c, n, dlam, plastic, (s * s) * Y, hardening, bond_damage, edp_n, t, edp_np1)
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -265,6 +220,7 @@ def visco_coefficients(m, theta, K, mu, lam_i):
     return ((3.0 * K) * theta) / m, ((1.0 - lam_i) * alpha) * 1.0, (lam_i * alpha) * 1.0
 
 
+# not a loop law: per-point helper of the tangents' probes (one family inside a parallel iteration); the loop law is VISCO_FORCE_STATE
 @njit(cache=True, error_model="numpy")
 def visco_bonds(i, shift, offsets, neighbors, zeta, y, m_i, theta_n, theta_np1, K, mu, lam_i, decay, beta, bond_damage, ext_n, edb_n, t, ext_np1, edb_np1):
     """Standard linear solid on the deviatoric extension of point i's bonds b: t[b - shift],
@@ -285,48 +241,134 @@ def visco_bonds(i, shift, offsets, neighbors, zeta, y, m_i, theta_n, theta_np1, 
         t[b - shift], edb_np1[b - shift] = visco_t(keep, e, ext_n[b], z, theta_n, theta_np1, c, k1, k2, decay, beta, edb_n[b])
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def visco_force_state_kernel(start, stop, offsets, neighbors, zeta, y, m, theta_n, theta, K, mu, lam_i, decay, beta, bond_damage, ext_n, edb_n, t, ext_np1, edb_np1):
-    """Force state t (nb,) of the bonds of points [start, stop) and their new back extension
-    edb_np1 and extension ext_np1 (nb,) (L)."""
-    for i in prange(start, stop):
-        visco_bonds(i, 0, offsets, neighbors, zeta, y, m[i], theta_n[i], theta[i], K, mu, lam_i, decay, beta, bond_damage, ext_n, edb_n, t, ext_np1, edb_np1)
+# ------------------------------------------------------------------------------------------------
+# Loop laws (peridyn.core.traversal), compiled by the run's backend. Bond context (i, j, b, ex,
+# ey, ez, L, z, p, args): eta = (ex, ey, ez) = y_j - y_i and L = |eta| (L), z = zeta[b] (L), p what
+# the law's point function returned for i. Empty ``bond_damage`` (d) means no damage model.
+# ------------------------------------------------------------------------------------------------
+def trial_norm_point(i, args):
+    """(s, alpha, c, theta_i) of point i: shear correction factor s (1 without), alpha = (s 15 mu)
+    / m_i (M L^-6 T^-2), c = 3 K theta_i / m_i (M L^-6 T^-2), both 0 without weighted volume.
+    args (V, m, theta, K, mu, scf, Y, H, hardening, d, edp_n, lam_n, pp): V (n,) L^3, m (n,) L^5,
+    theta (n,), scf (n,) or empty, Y and H numbers, d and edp_n (nb,), lam_n (n,), pp (n, 6)."""
+    m, theta, K, mu, scf = args[1], args[2], args[3], args[4], args[5]
+    s = scf[i] if scf.shape[0] > 0 else 1.0
+    m_i = m[i]
+    if m_i == 0.0:
+        return s, 0.0, 0.0, theta[i]
+    alpha = ((s * 15.0) * mu) / m_i
+    c = (((3.0 * K) * theta[i]) * 1.0) / m_i
+    return s, alpha, c, theta[i]
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def visco_fused_kernel(start, stop, offsets, neighbors, reverse, zeta, y, volume, m, theta_n, theta, K, mu, lam_i, decay, beta, bond_damage, ext_n, edb_n, ext_np1, edb_np1, f):
-    """f_i = sum_j (t_ij + t_ji) (eta/|eta|) V_j for i in [start, stop), both ends computed here
-    (``reverse`` gives the bond j->i, whose damage and N state the far end uses), and the new
-    state of i's own bonds."""
+def trial_norm_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """((1-d) t^tr)^2 V_j of bond i->j (M^2 L^-7 T^-4), damage once (omega = 1)."""
+    volume, bond_damage, edp_n = args[0], args[9], args[10]
+    s, alpha, c, theta_i = p
+    keep = 1.0 - bond_damage[b] if bond_damage.shape[0] > 0 else 1.0
+    return trial_square(L, z, theta_i, alpha, keep, edp_n[b]) * volume[j]
+
+
+def return_map_finish(i, norm2, p, args):
+    """The return map of point i from its trial norm squared: writes pp[i] = (alpha, c, n,
+    d lambda, plastic (1/0), sqrt(2 Y_p) of a perfectly plastic step) and returns lambda_NP1
+    (lambda_N + d lambda when plastic); a point without weighted volume stays elastic (zeros)."""
+    m, Y, H, hardening, lam_n, pp = args[1], args[6], args[7], args[8], args[11], args[12]
+    s, alpha, c, theta_i = p
+    n = 0.0
+    dlam = 0.0
+    plastic = False
+    if m[i] != 0.0:
+        n, dlam, plastic = return_map(norm2, alpha, s, Y, H, hardening, lam_n[i])
+    pp[i, 0] = alpha
+    pp[i, 1] = c
+    pp[i, 2] = n
+    pp[i, 3] = dlam
+    pp[i, 4] = 1.0 if plastic else 0.0
+    pp[i, 5] = math.sqrt(2.0 * ((s * s) * Y)) if plastic and not hardening else 0.0
+    return lam_n[i] + dlam if plastic else lam_n[i]
+
+
+def plastic_state_point(i, args):
+    """(theta_i, alpha, c, n, d lambda, plastic, sqrt(2 Y_p)) of point i from pp (args[1])."""
+    theta, pp = args[0], args[1]
+    return theta[i], pp[i, 0], pp[i, 1], pp[i, 2], pp[i, 3], pp[i, 4] != 0.0, pp[i, 5]
+
+
+def plastic_force_state_bond(i, j, b, ex, ey, ez, L, z, p, args):
+    """t_ij = (1-d)(c zeta + (1-d) t^d) (M L^-5 T^-2), and e^dp_NP1 (L) written at b. args
+    (theta, pp, hardening, d, edp_n, edp_np1)."""
+    theta, pp, hardening, bond_damage, edp_n, edp_np1 = args
+    theta_i, alpha, c, n, dlam, plastic, root = p
+    td, edp_np1[b] = plastic_td(L, z, theta_i, alpha, n, dlam, plastic, root, hardening, edp_n[b])
+    keep = 1.0 - bond_damage[b] if bond_damage.shape[0] > 0 else 1.0
+    return keep * (c * z + keep * td)
+
+
+def plastic_pair_force(i, j, b, ex, ey, ez, L, z, p, args):
+    """(t_ij + t_ji) V_j, both ends computed here (closed block: ``reverse`` gives the bond j->i,
+    whose damage, zeta and e^dp_N the far end uses), and e^dp_NP1 of bond b written. args
+    (theta, pp, hardening, d, edp_n, edp_np1, zeta, V, reverse)."""
+    theta, pp, hardening, bond_damage, edp_n, edp_np1, zeta, volume, reverse = args
+    theta_i, alpha, c, n, dlam, plastic, root = p
+    rb = reverse[b]
+    td_i, edp_np1[b] = plastic_td(L, z, theta_i, alpha, n, dlam, plastic, root, hardening, edp_n[b])
+    td_j, _ = plastic_td(L, zeta[rb], theta[j], pp[j, 0], pp[j, 2], pp[j, 3], pp[j, 4] != 0.0, pp[j, 5], hardening, edp_n[rb])
     has_damage = bond_damage.shape[0] > 0
-    for i in prange(start, stop):
-        fx = 0.0
-        fy = 0.0
-        fz = 0.0
-        c_i, k1_i, k2_i = visco_coefficients(m[i], theta[i], K, mu, lam_i)
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            rb = reverse[b]
-            z = zeta[b]
-            ex = y[j, 0] - y[i, 0]
-            ey = y[j, 1] - y[i, 1]
-            ez = y[j, 2] - y[i, 2]
-            L = math.sqrt(ex * ex + ey * ey + ez * ez)
-            k_i = 1.0 - bond_damage[b] if has_damage else 1.0
-            k_j = 1.0 - bond_damage[rb] if has_damage else 1.0
-            e = L - z
-            ext_np1[b] = e
-            t_i, edb_np1[b] = visco_t(k_i, e, ext_n[b], z, theta_n[i], theta[i], c_i, k1_i, k2_i, decay, beta, edb_n[b])
-            c_j, k1_j, k2_j = visco_coefficients(m[j], theta[j], K, mu, lam_i)
-            t_j, _ = visco_t(k_j, L - zeta[rb], ext_n[rb], zeta[rb], theta_n[j], theta[j], c_j, k1_j, k2_j, decay, beta, edb_n[rb])
-            if L > 0.0:
-                s = ((t_i + t_j) * volume[j]) / L
-                fx += s * ex
-                fy += s * ey
-                fz += s * ez
-        f[i, 0] = fx
-        f[i, 1] = fy
-        f[i, 2] = fz
+    k_i = 1.0 - bond_damage[b] if has_damage else 1.0
+    k_j = 1.0 - bond_damage[rb] if has_damage else 1.0
+    t = k_i * (c * z + k_i * td_i) + k_j * (pp[j, 1] * zeta[rb] + k_j * td_j)
+    return t * volume[j]
+
+
+def visco_point(i, args):
+    """(c, k1, k2, theta_N, theta) of point i (:func:`visco_coefficients`). args (m, theta_n,
+    theta, K, mu, lam_i, decay, beta, d, ext_n, edb_n, ext_np1, edb_np1, ...): m (n,) L^5, theta_n
+    and theta (n,), bond arrays (nb,) (L)."""
+    m, theta_n, theta, K, mu, lam_i = args[0], args[1], args[2], args[3], args[4], args[5]
+    c, k1, k2 = visco_coefficients(m[i], theta[i], K, mu, lam_i)
+    return c, k1, k2, theta_n[i], theta[i]
+
+
+def visco_force_state_bond(i, j, b, ex, ey, ez, L, z, p, args):
+    """t_ij (M L^-5 T^-2); e^b_NP1 and the extension |eta| - zeta (the next step's N) written at b."""
+    m, theta_n, theta, K, mu, lam_i, decay, beta, bond_damage, ext_n, edb_n, ext_np1, edb_np1 = args
+    c, k1, k2, th_n, th = p
+    keep = 1.0 - bond_damage[b] if bond_damage.shape[0] > 0 else 1.0
+    e = L - z
+    ext_np1[b] = e
+    t, edb_np1[b] = visco_t(keep, e, ext_n[b], z, th_n, th, c, k1, k2, decay, beta, edb_n[b])
+    return t
+
+
+def visco_pair_force(i, j, b, ex, ey, ez, L, z, p, args):
+    """(t_ij + t_ji) V_j, both ends computed here (``reverse`` gives the bond j->i, whose damage
+    and N state the far end uses), and the new state of bond b written. args as
+    :func:`visco_point`'s, then (zeta, V, reverse)."""
+    m, theta_n, theta, K, mu, lam_i, decay, beta, bond_damage, ext_n, edb_n, ext_np1, edb_np1, zeta, volume, reverse = args
+    c_i, k1_i, k2_i, th_n, th = p
+    rb = reverse[b]
+    has_damage = bond_damage.shape[0] > 0
+    k_i = 1.0 - bond_damage[b] if has_damage else 1.0
+    k_j = 1.0 - bond_damage[rb] if has_damage else 1.0
+    e = L - z
+    ext_np1[b] = e
+    t_i, edb_np1[b] = visco_t(k_i, e, ext_n[b], z, th_n, th, c_i, k1_i, k2_i, decay, beta, edb_n[b])
+    c_j, k1_j, k2_j = visco_coefficients(m[j], theta[j], K, mu, lam_i)
+    t_j, _ = visco_t(k_j, L - zeta[rb], ext_n[rb], zeta[rb], theta_n[j], theta[j], c_j, k1_j, k2_j, decay, beta, edb_n[rb])
+    return (t_i + t_j) * volume[j]
+
+
+#: lambda_NP1 (n,) out; pp (n, 6) written
+PLASTIC_POINTS = PointSum(trial_norm_term, point=trial_norm_point, finish=return_map_finish)
+#: t (nb,) out (M L^-5 T^-2); e^dp_NP1 written
+PLASTIC_FORCE_STATE = BondMap(plastic_force_state_bond, point=plastic_state_point)
+#: force density (n, 3) out; e^dp_NP1 written
+PLASTIC_PAIR_FORCE = PairForce(plastic_pair_force, point=plastic_state_point)
+#: t (nb,) out; e^b_NP1 and the extension written
+VISCO_FORCE_STATE = BondMap(visco_force_state_bond, point=visco_point)
+#: force density (n, 3) out; e^b_NP1 and the extension written
+VISCO_PAIR_FORCE = PairForce(visco_pair_force, point=visco_point)
 
 
 def relaxation_constants(tau: float, dt: float) -> tuple[float, float]:
@@ -431,12 +473,11 @@ class DeviatoricStateMaterial(Material):
         )
 
     def precompute(self, block: BlockView) -> None:
+        """theta (Elastic's DILATATION law without thermal strain)."""
         s, nl = block.fields, block.bonds
         kind, delta, table = self._common(block)
-        dilatation_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], s["Volume"], s["Weighted_Volume"],
-            kind, delta, table, self._damage(block), s["Dilatation"],
-        )
+        args = (s["Volume"], s["Weighted_Volume"], kind, delta, table, self._damage(block), EMPTY, 0.0)
+        compiled(block, DILATATION)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, s["Dilatation"])
 
     def _reverse(self, block: BlockView) -> np.ndarray | None:
         """The reverse-bond index when the fused kernel can compute both ends of the view's

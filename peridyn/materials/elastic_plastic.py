@@ -28,14 +28,15 @@ from pydantic import Field, model_validator
 from ..core.fields import FieldSpec, Relation, Temporal
 from ..core.params import UsedWhen
 from ..core.interfaces import BlockView
+from ..kernels import compiled
 from .deviatoric import (
     EMPTY,
     PERFECT,
+    PLASTIC_FORCE_STATE,
+    PLASTIC_PAIR_FORCE,
+    PLASTIC_POINTS,
     DeviatoricParams,
     DeviatoricStateMaterial,
-    plastic_force_state_kernel,
-    plastic_fused_kernel,
-    plastic_points_kernel,
     yield_value,
 )
 
@@ -85,7 +86,7 @@ class ElasticPlastic(DeviatoricStateMaterial):
     def __init__(self, params: PlasticParams, *, horizon: float | None, options=None) -> None:
         super().__init__(params, horizon=horizon, options=options)
         self.Y = ep_yield_value(params, float(horizon))
-        self._pp: np.ndarray | None = None  # return-map data of the fused path, (n_local, 6)
+        self._pp: np.ndarray | None = None  # return-map data of the force paths, (n_local, 6)
         self.H = float(getattr(params, "hardening_modulus", 1.0))  # unused by perfect plasticity
 
     def fields(self) -> list[FieldSpec]:
@@ -97,33 +98,40 @@ class ElasticPlastic(DeviatoricStateMaterial):
     def _scf(self, block: BlockView) -> np.ndarray:
         return EMPTY
 
-    def force_state(self, block: BlockView, t: np.ndarray) -> None:
+    def _return_map(self, block: BlockView) -> np.ndarray:
+        """First pass (``PLASTIC_POINTS``): lambda_NP1 of the view's points written, and their
+        return-map data pp (n, 6) (alpha, c, n, d lambda, plastic, sqrt(2 Y_p)) returned."""
         s, nl = block.fields, block.bonds
-        plastic_force_state_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], s["Volume"], s["Weighted_Volume"],
-            s["Dilatation"], self.K, self.mu, self._scf(block), self.Y, self.H, self.hardening, self._damage(block),
-            s.n("Deviatoric_Plastic_Extension"), s.n("Lambda"), t, s["Deviatoric_Plastic_Extension"], s["Lambda"],
+        if self._pp is None or self._pp.shape[0] != s.num_points:
+            self._pp = np.zeros((s.num_points, 6))
+        args = (
+            s["Volume"], s["Weighted_Volume"], s["Dilatation"], self.K, self.mu, self._scf(block), self.Y, self.H, self.hardening,
+            self._damage(block), s.n("Deviatoric_Plastic_Extension"), s.n("Lambda"), self._pp,
         )
+        compiled(block, PLASTIC_POINTS)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, s["Lambda"])
+        return self._pp
+
+    def force_state(self, block: BlockView, t: np.ndarray) -> None:
+        """t (nb,) of the view's bonds (M L^-5 T^-2) and their e^dp_NP1, after the return map."""
+        s, nl = block.fields, block.bonds
+        pp = self._return_map(block)
+        args = (s["Dilatation"], pp, self.hardening, self._damage(block), s.n("Deviatoric_Plastic_Extension"), s["Deviatoric_Plastic_Extension"])
+        compiled(block, PLASTIC_FORCE_STATE)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, t)
 
     def force_fused(self, block: BlockView, force_density: np.ndarray) -> bool:
-        """Both ends of every bond in one pass (no force-state array, no gather), after a pass
+        """Both ends of every bond in one pass (no force-state array, no gather), after the pass
         that gives every point its return-map data."""
         reverse = self._reverse(block)
         if reverse is None:
             return False
         s, nl = block.fields, block.bonds
-        if self._pp is None or self._pp.shape[0] != s.num_points:
-            self._pp = np.zeros((s.num_points, 6))
-        zeta, y, theta = s["Bond_Length"], s["Coordinates"], s["Dilatation"]
-        damage, edp_n = self._damage(block), s.n("Deviatoric_Plastic_Extension")
-        plastic_points_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, zeta, y, s["Volume"], s["Weighted_Volume"], theta, self.K, self.mu,
-            self._scf(block), self.Y, self.H, self.hardening, damage, edp_n, s.n("Lambda"), s["Lambda"], self._pp,
+        pp = self._return_map(block)
+        zeta = s["Bond_Length"]
+        args = (
+            s["Dilatation"], pp, self.hardening, self._damage(block), s.n("Deviatoric_Plastic_Extension"), s["Deviatoric_Plastic_Extension"],
+            zeta, s["Volume"], reverse,
         )
-        plastic_fused_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, reverse, zeta, y, s["Volume"], theta, self._pp, self.hardening, damage,
-            edp_n, s["Deviatoric_Plastic_Extension"], force_density,
-        )
+        compiled(block, PLASTIC_PAIR_FORCE)(block.start, block.stop, nl.offsets, nl.neighbors, zeta, s["Coordinates"], args, force_density)
         return True
 
     def tangent(self, block: BlockView, target) -> bool:

@@ -27,13 +27,14 @@ from pydantic import Field
 
 from ..core.fields import FieldSpec, Relation, Temporal
 from ..core.interfaces import BlockView
+from ..kernels import compiled
 from .deviatoric import (
     VISCO,
+    VISCO_FORCE_STATE,
+    VISCO_PAIR_FORCE,
     DeviatoricParams,
     DeviatoricStateMaterial,
     relaxation_constants,
-    visco_force_state_kernel,
-    visco_fused_kernel,
 )
 
 
@@ -60,14 +61,20 @@ class Viscoelastic(DeviatoricStateMaterial):
     def _constants(self, block: BlockView) -> tuple[float, float]:
         return relaxation_constants(float(self.params.tau_b), float(block.time_step))
 
-    def force_state(self, block: BlockView, t: np.ndarray) -> None:
-        s, nl = block.fields, block.bonds
+    def _args(self, block: BlockView) -> tuple:
+        """The laws' args (m, theta_N, theta, K, mu, lambda_i, decay, beta, d, extension_N,
+        e^b_N, extension_NP1, e^b_NP1)."""
+        s = block.fields
         decay, beta = self._constants(block)
-        visco_force_state_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], s["Weighted_Volume"], s.n("Dilatation"),
-            s["Dilatation"], self.K, self.mu, float(self.params.lambda_i), decay, beta, self._damage(block),
-            s.n("Viscoelastic_Bond_Extension"), s.n("Deviatoric_Back_Extension"), t, s["Viscoelastic_Bond_Extension"], s["Deviatoric_Back_Extension"],
+        return (
+            s["Weighted_Volume"], s.n("Dilatation"), s["Dilatation"], self.K, self.mu, float(self.params.lambda_i), decay, beta, self._damage(block),
+            s.n("Viscoelastic_Bond_Extension"), s.n("Deviatoric_Back_Extension"), s["Viscoelastic_Bond_Extension"], s["Deviatoric_Back_Extension"],
         )
+
+    def force_state(self, block: BlockView, t: np.ndarray) -> None:
+        """t (nb,) of the view's bonds (M L^-5 T^-2), their new back extension and extension."""
+        s, nl = block.fields, block.bonds
+        compiled(block, VISCO_FORCE_STATE)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], self._args(block), t)
 
     def force_fused(self, block: BlockView, force_density: np.ndarray) -> bool:
         """Both ends of every bond in one pass (no force-state array, no gather)."""
@@ -75,13 +82,9 @@ class Viscoelastic(DeviatoricStateMaterial):
         if reverse is None:
             return False
         s, nl = block.fields, block.bonds
-        decay, beta = self._constants(block)
-        visco_fused_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, reverse, s["Bond_Length"], s["Coordinates"], s["Volume"], s["Weighted_Volume"],
-            s.n("Dilatation"), s["Dilatation"], self.K, self.mu, float(self.params.lambda_i), decay, beta, self._damage(block),
-            s.n("Viscoelastic_Bond_Extension"), s.n("Deviatoric_Back_Extension"), s["Viscoelastic_Bond_Extension"], s["Deviatoric_Back_Extension"],
-            force_density,
-        )
+        zeta = s["Bond_Length"]
+        args = self._args(block) + (zeta, s["Volume"], reverse)
+        compiled(block, VISCO_PAIR_FORCE)(block.start, block.stop, nl.offsets, nl.neighbors, zeta, s["Coordinates"], args, force_density)
         return True
 
     def tangent(self, block: BlockView, target) -> bool:
