@@ -37,21 +37,26 @@ class PointSum:
     """``out[i] = finish(i, acc, p, args)`` with ``acc = sum_b term(bond context)``; ``out`` (n,).
 
     Without ``finish``, ``out[i] = acc``. ``gate(i, b, p, args) -> bool``, when given, runs
-    before a bond's geometry: False skips the bond (e.g. broken for good).
+    before a bond's geometry: False skips the bond (e.g. broken for good). With ``width`` w > 1
+    the term returns a w-tuple, summed component by component (each in bond order), ``acc`` is
+    a w-tuple, ``finish`` returns a w-tuple, and ``out`` is (n, w).
     """
 
     term: Callable
     point: Callable | None = None
     finish: Callable | None = None
     gate: Callable | None = None
+    width: int = 1
 
 
 @dataclass(frozen=True)
 class BondMap:
-    """``out[b] = bond(bond context)`` for every bond of the points; ``out`` (nb,)."""
+    """``out[b] = bond(bond context)`` for every bond of the points; ``out`` (nb,), or (nb, w)
+    when ``width`` w > 1 and the function returns a w-tuple (a vector force state: w = 3)."""
 
     bond: Callable
     point: Callable | None = None
+    width: int = 1
 
 
 @dataclass(frozen=True)

@@ -3,7 +3,7 @@ and the shared gathers and packing every model's loops use."""
 from __future__ import annotations
 
 import os
-from typing import Callable
+from typing import Any, Callable
 
 from ..core.traversal import Backend, BondMap, Law, PairForce, PointSum
 

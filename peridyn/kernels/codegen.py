@@ -160,10 +160,16 @@ def loop_body(law: Law, indent: str) -> str:
         "    ez = y[j, 2] - yi2",
         "    L = math.sqrt(ex * ex + ey * ey + ez * ez)",
     ]
-    if isinstance(law, PointSum):
+    if isinstance(law, PointSum) and law.width == 1:
         lines.append("    acc += term(i, j, b, ex, ey, ez, L, z, p, args)")
-    elif isinstance(law, BondMap):
+    elif isinstance(law, PointSum):
+        lines.append("    t = term(i, j, b, ex, ey, ez, L, z, p, args)")
+        lines += [f"    acc{k} += t[{k}]" for k in range(law.width)]
+    elif isinstance(law, BondMap) and law.width == 1:
         lines.append("    out[b] = bond(i, j, b, ex, ey, ez, L, z, p, args)")
+    elif isinstance(law, BondMap):
+        lines.append("    t = bond(i, j, b, ex, ey, ez, L, z, p, args)")
+        lines += [f"    out[b, {k}] = t[{k}]" for k in range(law.width)]
     elif isinstance(law, PairForce):
         lines += [
             "    s = pair(i, j, b, ex, ey, ez, L, z, p, args)",
@@ -182,9 +188,15 @@ def point_loop(law: Law, loop: str) -> str:
     """The whole kernel body: ``loop`` is the point loop header (``for i in prange(start, stop):``
     on CPU threads)."""
     pre = ["p = point(i, args)" if law.point is not None else "p = 0.0"]
-    if isinstance(law, PointSum):
+    if isinstance(law, PointSum) and law.width == 1:
         pre.append("acc = 0.0")
         post = ["out[i] = finish(i, acc, p, args)" if law.finish is not None else "out[i] = acc"]
+    elif isinstance(law, PointSum):
+        w = law.width
+        pre += [f"acc{k} = 0.0" for k in range(w)]
+        acc = "(" + ", ".join(f"acc{k}" for k in range(w)) + ")"
+        post = [f"r = finish(i, {acc}, p, args)"] if law.finish is not None else [f"r = {acc}"]
+        post += [f"out[i, {k}] = r[{k}]" for k in range(w)]
     elif isinstance(law, PairForce):
         pre += ["fx = 0.0", "fy = 0.0", "fz = 0.0"]
         post = ["out[i, 0] = fx", "out[i, 1] = fy", "out[i, 2] = fz"]

@@ -36,3 +36,19 @@ def pair(i, j, b, ex, ey, ez, L, z, p, args):
 SUM = PointSum(sum_term, point=owner, finish=scale, gate=skip_marked)
 STRETCH = BondMap(bond_stretch)
 PAIR = PairForce(pair, gate=skip_marked)
+
+
+def moment_term(i, j, b, ex, ey, ez, L, z, p, args):
+    return (ex * args[0][j], ey * args[0][j], ez * args[0][j])
+
+
+def normalized(i, acc, p, args):
+    return (acc[0] / args[1], acc[1] / args[1], acc[2] / args[1])
+
+
+def unit_bond(i, j, b, ex, ey, ez, L, z, p, args):
+    return (ex / L, ey / L, ez / L)
+
+
+MOMENT = PointSum(moment_term, finish=normalized, width=3)
+UNIT = BondMap(unit_bond, width=3)

@@ -141,3 +141,22 @@ def test_a_plugin_adds_a_backend_that_runs_the_materials_loops():
         sim = build_simulation(tree, backend="counting")
         sim.evaluate_forces()
     assert CountingBackend.asked, "the material's loops did not go through the plugin's backend"
+
+
+@pytest.mark.parametrize("backend", [NumbaBackend(), SerialNumbaBackend()], ids=lambda b: b.name)
+def test_vector_laws(backend):
+    """width > 1: a tuple per bond, summed component by component in bond order, or stored per bond."""
+    offsets, neighbors, x, y, zeta, rng = random_bonds()
+    n = len(offsets) - 1
+    w = rng.uniform(1, 2, n)
+    out = np.full((n, 3), np.nan)
+    backend.kernel(laws.MOMENT)(0, n, offsets, neighbors, zeta, y, (w, 4.0), out)
+    unit = np.full((len(neighbors), 3), np.nan)
+    backend.kernel(laws.UNIT)(0, n, offsets, neighbors, zeta, y, (), unit)
+    for i in range(n):
+        acc = np.zeros(3)
+        for b in range(offsets[i], offsets[i + 1]):
+            eta = y[neighbors[b]] - y[i]
+            acc += eta * w[neighbors[b]]
+            np.testing.assert_allclose(unit[b], eta / np.linalg.norm(eta), rtol=1e-14)
+        np.testing.assert_array_equal(out[i], acc / 4.0)
