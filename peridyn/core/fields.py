@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from enum import Enum, IntEnum
+from typing import Callable
 
 import numpy as np
 
@@ -78,6 +79,7 @@ class FieldStore:
         self.specs: dict[str, FieldSpec] = {}
         self._np1: dict[str, np.ndarray] = {}
         self._n: dict[str, np.ndarray] = {}
+        self._lazy: dict[str, Callable[[np.ndarray], None]] = {}
 
     # declaration -----------------------------------------------------------------------------
     def declare(self, spec: FieldSpec) -> None:
@@ -102,6 +104,19 @@ class FieldStore:
         if spec.name not in self._np1:
             self._allocate(self.specs[spec.name])
 
+    def declare_lazy(self, spec: FieldSpec, fill: Callable[[np.ndarray], None]) -> None:
+        """Declare a constant field allocated and filled (``fill(array)``) only when first read:
+        a run whose kernels never read it never holds it (e.g. Bond_Length, 8 bytes a bond, for
+        models that take bond lengths from the reference positions)."""
+        if spec.temporal is not Temporal.CONSTANT or spec.name in self.specs:
+            raise ValueError(f"field {spec.name}: only a new constant field can be lazy")
+        self.specs[spec.name] = spec
+        self._lazy[spec.name] = fill
+
+    def allocated(self, name: str) -> bool:
+        """Whether the field's array exists (a lazy field before its first read does not)."""
+        return name in self._np1
+
     def declare_all(self, specs) -> None:
         for spec in specs:
             self.declare(spec)
@@ -121,13 +136,18 @@ class FieldStore:
 
     # access ----------------------------------------------------------------------------------
     def __contains__(self, name: str) -> bool:
-        return name in self._np1
+        return name in self._np1 or name in self._lazy
 
     def __getitem__(self, name: str) -> np.ndarray:
         try:
             return self._np1[name]
         except KeyError:
-            raise KeyError(f"field {name!r} was not declared by any model, compute or output") from None
+            fill = self._lazy.pop(name, None)
+            if fill is None:
+                raise KeyError(f"field {name!r} was not declared by any model, compute or output") from None
+            self._allocate(self.specs[name])
+            fill(self._np1[name])
+            return self._np1[name]
 
     def n(self, name: str) -> np.ndarray:
         """The N (previous step) array of a two-step field."""
@@ -137,7 +157,7 @@ class FieldStore:
         return self[name]
 
     def get(self, name: str, default=None):
-        return self._np1.get(name, default)
+        return self[name] if name in self else default
 
     def set(self, name: str, array: np.ndarray) -> None:
         """Replace the NP1 array of a declared field (same shape)."""

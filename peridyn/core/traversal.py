@@ -23,7 +23,10 @@ order are exactly what is written.
 Kernel signature for every law: ``kernel(start, stop, offsets, neighbors, zeta, y, args, out)``
 with ``offsets`` (n+1,) and ``neighbors`` (nb,) int32 the CSR bonds, ``zeta`` (nb,) reference bond
 lengths (L), ``y`` (n, >=3) current positions in columns 0-2 (L; packed records may carry more
-columns), ``out`` the law's output (below). Points ``[start, stop)`` are computed.
+columns), ``out`` the law's output (below). Points ``[start, stop)`` are computed. A law with
+``z_from_positions=True`` takes instead of ``zeta`` the reference positions (n, >=3) (e.g. columns
+of the same packed records as ``y``) and computes z = |x_j - x_i| as the engine computes
+``Bond_Length`` (the same bits): no bond-length stream to read, no bond-length field to hold.
 """
 from __future__ import annotations
 
@@ -47,6 +50,7 @@ class PointSum:
     finish: Callable | None = None
     gate: Callable | None = None
     width: int = 1
+    z_from_positions: bool = False
 
 
 @dataclass(frozen=True)
@@ -57,6 +61,7 @@ class BondMap:
     bond: Callable
     point: Callable | None = None
     width: int = 1
+    z_from_positions: bool = False
 
 
 @dataclass(frozen=True)
@@ -70,6 +75,7 @@ class PairForce:
     pair: Callable
     point: Callable | None = None
     gate: Callable | None = None
+    z_from_positions: bool = False
 
 
 Law = PointSum | BondMap | PairForce

@@ -30,10 +30,14 @@ def finite_points(disc: Any, file: str, path: tuple[str, ...]) -> None:
 
 
 def no_coincident_points(sim: Any, disc: Any) -> None:
-    """No bond of zero reference length (``Bond_Length`` filled): two points at one place."""
-    zeta = sim.fields["Bond_Length"]
-    if zeta.size and not zeta.min() > 0.0:
-        b = int(np.argmin(zeta))
+    """No bond of zero reference length: two points at one place (bond lengths computed from
+    the reference positions, without allocating Bond_Length)."""
+    from .kernels import shortest_bond_kernel
+
+    nl = sim.bonds
+    shortest, b = shortest_bond_kernel(sim.num_local, nl.offsets, nl.neighbors, sim.fields["Model_Coordinates"])
+    if b >= 0 and not shortest > 0.0:
+        b = int(b)
         i = int(np.searchsorted(sim.bonds.offsets, b, side="right")) - 1
         j = int(sim.bonds.neighbors[b])
         x = sim.fields["Model_Coordinates"][i]

@@ -21,6 +21,25 @@ def bond_length_kernel(n, offsets, neighbors, x, zeta):
 
 
 @njit(cache=True)
+def shortest_bond_kernel(n, offsets, neighbors, x):
+    """(min |xi|, its bond) over the bonds of rows [0, n), |xi| computed as in ``bond_length_kernel``;
+    (inf, -1) without bonds."""
+    best = np.inf
+    where = -1
+    for i in range(n):
+        for b in range(offsets[i], offsets[i + 1]):
+            j = neighbors[b]
+            dx = x[j, 0] - x[i, 0]
+            dy = x[j, 1] - x[i, 1]
+            dz = x[j, 2] - x[i, 2]
+            z = math.sqrt(dx * dx + dy * dy + dz * dz)
+            if where < 0 or z < best or (z != z and best == best):  # the first NaN counts as the shortest
+                best = z
+                where = b
+    return best, where
+
+
+@njit(cache=True)
 def foreign_neighbor_kernel(n, offsets, neighbors, owner, rank, out):
     """out[i] = some neighbor of row i is owned by another rank."""
     for i in range(n):

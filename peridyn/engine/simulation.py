@@ -113,6 +113,7 @@ class Simulation:
         offsets, neighbors = self._build_neighbors(disc, horizon)
         self.timers["neighbor search"] = _time.perf_counter() - t0
         self._order_points(disc, offsets, neighbors, horizon)
+        del offsets, neighbors  # the search's lists in mesh order (4 bytes a bond): renumbered into self.bonds
         self.interfaces = None
         if getattr(dentry.params, "construct_interfaces", False):  # PERIDIGM_MODELS.md §11
             from ..io.interfaces import setup_interfaces
@@ -374,9 +375,9 @@ class Simulation:
         for name in ("Model_Coordinates", "Coordinates", "Displacement", "Velocity", "Force_Density"):
             store.declare(FieldSpec(name, Relation.NODE, Length.VECTOR))
         store.declare(FieldSpec("Volume", Relation.ELEMENT))
-        # reference bond lengths: every bond kernel needs them; computing them once saves a
-        # square root and two gathers per bond per pass (8 bytes per bond)
-        store.declare(FieldSpec("Bond_Length", Relation.BOND, units="L"))
+        # reference bond lengths |xi| (L, 8 bytes a bond), filled when a kernel first reads them:
+        # loops that take them from packed reference positions never allocate them
+        store.declare_lazy(FieldSpec("Bond_Length", Relation.BOND, units="L"), self._fill_bond_lengths)
         for blk in self.blocks:
             store.declare_all(blk.material.fields())
             if blk.damage is not None:
@@ -398,10 +399,12 @@ class Simulation:
         s["Model_Coordinates"][:] = x
         s["Coordinates"][:] = x
         s["Volume"][:] = disc.volume[self.mothership_of_local]
-        bond_length_kernel(self.num_local, self.bonds.offsets, self.bonds.neighbors, x, s["Bond_Length"])
         checks.no_coincident_points(self, disc)
         if "Horizon" in s:
             s["Horizon"][:] = self.horizon_local
+
+    def _fill_bond_lengths(self, zeta: np.ndarray) -> None:
+        bond_length_kernel(self.num_local, self.bonds.offsets, self.bonds.neighbors, self.fields["Model_Coordinates"], zeta)
 
     def _make_views(self) -> None:
         for blk in self.blocks:

@@ -152,9 +152,17 @@ def loop_body(law: Law, indent: str) -> str:
     if gate:
         lines.append("    if not gate(i, b, p, args):")
         lines.append("        continue")
+    lines.append("    j = neighbors[b]")
+    if law.z_from_positions:  # |x_j - x_i| with the engine's Bond_Length arithmetic
+        lines += [
+            "    dx = zeta[j, 0] - xi0",
+            "    dy = zeta[j, 1] - xi1",
+            "    dz = zeta[j, 2] - xi2",
+            "    z = math.sqrt(dx * dx + dy * dy + dz * dz)",
+        ]
+    else:
+        lines.append("    z = zeta[b]")
     lines += [
-        "    j = neighbors[b]",
-        "    z = zeta[b]",
         "    ex = y[j, 0] - yi0",
         "    ey = y[j, 1] - yi1",
         "    ez = y[j, 2] - yi2",
@@ -203,6 +211,8 @@ def point_loop(law: Law, loop: str) -> str:
     else:
         post = []
     pre += ["yi0 = y[i, 0]", "yi1 = y[i, 1]", "yi2 = y[i, 2]"]
+    if law.z_from_positions:
+        pre += ["xi0 = zeta[i, 0]", "xi1 = zeta[i, 1]", "xi2 = zeta[i, 2]"]
     body = "\n".join("        " + s for s in pre) + "\n" + loop_body(law, "        ") + "\n"
     body += "\n".join("        " + s for s in post)
     return f"    {loop}\n{body}\n"

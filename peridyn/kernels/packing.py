@@ -29,14 +29,13 @@ def reach_kernel(start, stop, n_owned, offsets, neighbors):
 
 
 @njit(cache=True, parallel=True)
-def pack_points_kernel(lo1, hi1, lo2, hi2, y, volume, P):
-    """P[i, 0:3] = y_i (L) and V_i (L^3) in the last column of P, for the rows [lo1, hi1) and
-    [lo2, hi2); the columns between are the model's."""
+def pack_points_kernel(lo1, hi1, lo2, hi2, y, volume, vcol, P):
+    """P[i, 0:3] = y_i (L) and P[i, vcol] = V_i (L^3) for the rows [lo1, hi1) and [lo2, hi2);
+    the other columns are the model's."""
     n1 = hi1 - lo1
-    last = P.shape[1] - 1
     for k in prange(n1 + (hi2 - lo2)):
         i = lo1 + k if k < n1 else lo2 + (k - n1)
         P[i, 0] = y[i, 0]
         P[i, 1] = y[i, 1]
         P[i, 2] = y[i, 2]
-        P[i, last] = volume[i]
+        P[i, vcol] = volume[i]

@@ -233,14 +233,16 @@ def stored_energy_finish(i, acc, th, args):
 
 
 WEIGHTED_VOLUME = PointSum(weighted_volume_term)
+WEIGHTED_VOLUME_FROM_X = PointSum(weighted_volume_term, z_from_positions=True)  # zeta: x (no Bond_Length)
 DILATATION = PointSum(dilatation_term, point=thermal_shift, finish=dilatation_finish)
-DILATATION_PLAIN = PointSum(dilatation_plain_term, finish=dilatation_finish)
-DILATATION_STRETCH_DAMAGE = PointSum(stretch_damage_term, gate=stretch_damage_gate, finish=stretch_damage_finish)
+# the packed-record laws take |xi| from the records' reference positions (columns 6-8)
+DILATATION_PLAIN = PointSum(dilatation_plain_term, finish=dilatation_finish, z_from_positions=True)
+DILATATION_STRETCH_DAMAGE = PointSum(stretch_damage_term, gate=stretch_damage_gate, finish=stretch_damage_finish, z_from_positions=True)
 FORCE_STATE = BondMap(force_state_bond, point=coefficients_point)
 PAIR_FORCE = PairForce(pair_force, point=coefficients_point)
-PAIR_FORCE_PLAIN = PairForce(pair_force_plain, point=packed_point)
-PAIR_FORCE_DAMAGE_PLAIN = PairForce(pair_force_damage_plain, point=packed_point, gate=intact_gate)
-STORED_ENERGY = PointSum(stored_energy_term, point=energy_point, finish=stored_energy_finish)
+PAIR_FORCE_PLAIN = PairForce(pair_force_plain, point=packed_point, z_from_positions=True)
+PAIR_FORCE_DAMAGE_PLAIN = PairForce(pair_force_damage_plain, point=packed_point, gate=intact_gate, z_from_positions=True)
+STORED_ENERGY = PointSum(stored_energy_term, point=energy_point, finish=stored_energy_finish, z_from_positions=True)  # zeta: x
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -260,12 +262,15 @@ def coefficients_kernel(start, stop, m, theta, K, mu, a, c):
         a[i], c[i] = point_coefficients(m[i], theta[i], K, mu)
 
 
-# Packed point records for the hot kernels: row i of P (n_local, 6) holds (y_x, y_y, y_z, a_i,
-# c_i, V_i) in one 48-byte record, so a neighbor costs one or two cache lines instead of one per
-# array (y, a, c, V). On cube40 (7.15 M bonds) that made a step 8 % faster on one core and much
-# less slowed by a busy second core (median 2-thread step 31.8 against 37.4 ms). Only the rows a
-# view's bonds reach are packed: two ranges, owned rows and ghost rows (``Elastic._reach``).
-PACK_WIDTH = 6
+# Packed point records for the hot kernels: row i of P (n_local, 9) holds (y_x, y_y, y_z, a_i,
+# c_i, V_i, x_x, x_y, x_z) in one 72-byte record, so a neighbor costs one or two cache lines
+# instead of one per array (y, a, c, V, x). On cube40 (7.15 M bonds) packing y, a, c, V made a step
+# 8 % faster on one core and much less slowed by a busy second core; taking |xi| from the
+# record's x instead of reading Bond_Length (8 bytes a bond, never allocated then) made the force
+# kernel 16 % faster again, bit for bit. Only the rows a view's bonds reach are repacked: two
+# ranges, owned rows and ghost rows (``Elastic._reach``); x is written once.
+PACK_WIDTH = 9
+X_COLUMNS = slice(6, 9)
 PACK_MIN_ROWS = 64  # smaller views (the finite-difference tangent's single points) read the arrays
 
 
@@ -345,9 +350,8 @@ class Elastic(Material):
         if block.influence.needs_table:
             self.omega_table = block.influence.table_for(nl.offsets, nl.neighbors, s["Model_Coordinates"], np.arange(block.start, block.stop), block.horizon)
         kind, delta, table = self._common(block)
-        compiled(block, WEIGHTED_VOLUME)(
-            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Model_Coordinates"], (s["Volume"], kind, delta, table), s["Weighted_Volume"]
-        )
+        x = s["Model_Coordinates"]
+        compiled(block, WEIGHTED_VOLUME_FROM_X)(block.start, block.stop, nl.offsets, nl.neighbors, x, x, (s["Volume"], kind, delta, table), s["Weighted_Volume"])
 
     def adopt_damage(self, damage) -> bool:
         rule = damage.bond_rule()
@@ -362,7 +366,7 @@ class Elastic(Material):
         _, s_c, copy_previous = self._damage_model.bond_rule()
         P = self._packed(block, False)
         args = (P, s["Weighted_Volume"], kind, delta, table, s_c, s.n("Bond_Damage"), s["Bond_Damage"], copy_previous, s["Damage"], nl.offsets)
-        compiled(block, DILATATION_STRETCH_DAMAGE)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], P, args, s["Dilatation"])
+        compiled(block, DILATATION_STRETCH_DAMAGE)(block.start, block.stop, nl.offsets, nl.neighbors, P[:, X_COLUMNS], P, args, s["Dilatation"])
 
     def precompute(self, block: BlockView) -> None:
         s, nl = block.fields, block.bonds
@@ -371,7 +375,7 @@ class Elastic(Material):
         damage = self._damage(block)
         if kind == 0 and not damage.shape[0] and not dT.shape[0] and block.stop - block.start >= PACK_MIN_ROWS:
             P = self._packed(block, False)
-            compiled(block, DILATATION_PLAIN)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], P, (P, s["Weighted_Volume"]), s["Dilatation"])
+            compiled(block, DILATATION_PLAIN)(block.start, block.stop, nl.offsets, nl.neighbors, P[:, X_COLUMNS], P, (P, s["Weighted_Volume"]), s["Dilatation"])
             return
         args = (s["Volume"], s["Weighted_Volume"], kind, delta, table, damage, dT, aT)
         compiled(block, DILATATION)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, s["Dilatation"])
@@ -392,11 +396,12 @@ class Elastic(Material):
         n = s.num_points
         if self._P is None or self._P.shape[0] != n:
             self._P = np.zeros((n, PACK_WIDTH))
+            self._P[:, X_COLUMNS] = s["Model_Coordinates"]
         lo1, hi1, lo2, hi2 = self._reach(block)
         if coefficients:
             pack_force_points_kernel(lo1, hi1, lo2, hi2, s["Coordinates"], s["Volume"], s["Weighted_Volume"], s["Dilatation"], self.K, self.mu, self._P)
         else:
-            pack_points_kernel(lo1, hi1, lo2, hi2, s["Coordinates"], s["Volume"], self._P)
+            pack_points_kernel(lo1, hi1, lo2, hi2, s["Coordinates"], s["Volume"], 5, self._P)
         return self._P
 
     def _coefficients(self, block: BlockView, reach: bool = False) -> tuple[np.ndarray, np.ndarray]:
@@ -429,12 +434,12 @@ class Elastic(Material):
         damage = self._damage(block)
         if kind == 0 and not damage.shape[0] and not dT.shape[0]:
             P = self._packed(block, True)
-            compiled(block, PAIR_FORCE_PLAIN)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], P, (P,), force_density)
+            compiled(block, PAIR_FORCE_PLAIN)(block.start, block.stop, nl.offsets, nl.neighbors, P[:, X_COLUMNS], P, (P,), force_density)
             return True
         reverse = nl.reverse() if damage.shape[0] and not block.damage_symmetric else EMPTY_INDEX
         if kind == 0 and damage.shape[0] and not dT.shape[0] and not reverse.shape[0]:
             P = self._packed(block, True)
-            compiled(block, PAIR_FORCE_DAMAGE_PLAIN)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], P, (P, damage), force_density)
+            compiled(block, PAIR_FORCE_DAMAGE_PLAIN)(block.start, block.stop, nl.offsets, nl.neighbors, P[:, X_COLUMNS], P, (P, damage), force_density)
             return True
         a, c = self._coefficients(block, reach=True)
         args = (a, c, s["Volume"], kind, delta, table, damage, reverse, dT, aT)
@@ -465,4 +470,4 @@ class Elastic(Material):
         kind, delta, table = self._common(block)
         dT, aT = self._dT(block)
         args = (s["Model_Coordinates"], s["Volume"], s["Weighted_Volume"], self.K, s["Dilatation"], self.mu, kind, delta, table, self._damage(block), dT, aT)
-        compiled(block, STORED_ENERGY)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, out)
+        compiled(block, STORED_ENERGY)(block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Coordinates"], args, out)

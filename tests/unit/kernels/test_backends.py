@@ -160,3 +160,23 @@ def test_vector_laws(backend):
             acc += eta * w[neighbors[b]]
             np.testing.assert_allclose(unit[b], eta / np.linalg.norm(eta), rtol=1e-14)
         np.testing.assert_array_equal(out[i], acc / 4.0)
+
+
+@pytest.mark.parametrize("law", [laws.SUM, laws.STRETCH, laws.PAIR], ids=["PointSum", "BondMap", "PairForce"])
+def test_bond_lengths_from_reference_positions_are_the_same_bits(law):
+    """z_from_positions: |x_j - x_i| computed in the loop equals the engine's Bond_Length bit for bit."""
+    from dataclasses import replace
+
+    from peridyn.engine.kernels import bond_length_kernel
+
+    offsets, neighbors, x, y, zeta, rng = random_bonds(seed=8)
+    n = len(offsets) - 1
+    zeta = np.empty(len(neighbors))
+    bond_length_kernel(n, offsets, neighbors, x, zeta)
+    args = (rng.uniform(1, 2, n), rng.uniform(0, 1, n), 3.0, np.zeros(len(neighbors), np.uint8))
+    shape = (n,) if isinstance(law, PointSum) else (len(neighbors),) if law is laws.STRETCH else (n, 3)
+    a, b = np.zeros(shape), np.zeros(shape)
+    backend = NumbaBackend()
+    backend.kernel(law)(0, n, offsets, neighbors, zeta, y, args, a)
+    backend.kernel(replace(law, z_from_positions=True))(0, n, offsets, neighbors, x, y, args, b)
+    np.testing.assert_array_equal(a, b)
