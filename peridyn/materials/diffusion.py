@@ -45,6 +45,8 @@ from ..core.errors import InputError, InstabilityError
 from ..core.fields import FieldSpec, Relation
 from ..core.interfaces import BlockView, Material
 from ..core.params import ModelParams
+from ..core.traversal import PointSum
+from ..kernels import compiled
 
 EMPTY = np.zeros(0)
 
@@ -64,51 +66,67 @@ class DiffusionParams(ModelParams):
 
 
 # ------------------------------------------------------------------------------------------------
-# kernels (x (n, 3) L; volume (n,) L^3; T, Q (n,); offsets (n+1,), neighbors (nb,) int32;
-# zeta, w (nb,) per bond; an empty w means w_ij = V_j)
+# Loop laws (peridyn.core.traversal), compiled into each loop by the run's backend. Bond context
+# (i, j, b, ex, ey, ez, L, z, p, args): z = zeta[b] the reference bond length (L); the positions
+# are not read. Arrays: V (n,) L^3; T (n,) temperature; w (nb,) quadrature weights (L^3), empty
+# for w_ij = V_j.
 # ------------------------------------------------------------------------------------------------
-@njit(cache=True, parallel=True, error_model="numpy")
-def flux_divergence_kernel(start, stop, offsets, neighbors, zeta, volume, T, w, kappa, delta, Q):
-    """Q_i = sum_j ((kappa k_ij) (T_j - T_i)) w_ij for i in [start, stop), k_ij = 6 /
-    (pi delta^4 zeta_ij) (Peridigm's order, sequential sum from 0.0): temperature per time.
-    Returns the number of non-finite Q_i (0 normally)."""
-    d4 = (((math.pi * delta) * delta) * delta) * delta
-    weighted = w.shape[0] > 0
-    bad = 0
-    for i in prange(start, stop):
-        Ti = T[i]
-        acc = 0.0
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            k = 6.0 / (d4 * zeta[b])
-            wb = w[b] if weighted else volume[j]
-            acc += ((kappa * k) * (T[j] - Ti)) * wb
-        Q[i] = acc
-        if not np.isfinite(acc):
-            bad += 1
-    return bad
+def pi_delta4(delta):
+    """pi delta^4 (L^4) in Peridigm's order."""
+    return (((math.pi * delta) * delta) * delta) * delta
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def flux_jacobian_kernel(start, stop, offsets, neighbors, zeta, volume, w, kappa, delta, row_of_local, bond_pos, diag_pos, data):
-    """The rows of J = d(Q V)/dT of the points [start, stop) (temperature per time x volume per
-    temperature): data[bond_pos[b]] = ((kappa k_ij) w_ij) V_i for bond b = i->j, and
-    data[diag_pos[row]] = -(sum over i's bonds of the same), row = row_of_local[i]."""
-    d4 = (((math.pi * delta) * delta) * delta) * delta
-    weighted = w.shape[0] > 0
-    for i in prange(start, stop):
-        Vi = volume[i]
-        diag = 0.0
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            k = 6.0 / (d4 * zeta[b])
-            wb = w[b] if weighted else volume[j]
-            c = ((kappa * k) * wb) * Vi
-            data[bond_pos[b]] = c
-            diag -= c
-        data[diag_pos[row_of_local[i]]] = diag
+def bond_weight(j, b, w, volume):
+    """w_ij: the bond's quadrature weight, else V_j (L^3)."""
+    return w[b] if w.shape[0] > 0 else volume[j]
 
 
+def flux_point(i, args):
+    """(T_i, pi delta^4); args (V, T, w, kappa, delta)."""
+    return args[1][i], pi_delta4(args[4])
+
+
+def flux_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """((kappa k_ij) (T_j - T_i)) w_ij, k_ij = 6 / (pi delta^4 zeta_ij) (temperature per time)."""
+    volume, T, w, kappa, delta = args
+    Ti, d4 = p
+    k = 6.0 / (d4 * z)
+    return ((kappa * k) * (T[j] - Ti)) * bond_weight(j, b, w, volume)
+
+
+def jacobian_point(i, args):
+    """(V_i, pi delta^4); args (V, w, kappa, delta, bond_pos, data)."""
+    return args[0][i], pi_delta4(args[3])
+
+
+def jacobian_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """Writes J_ij = ((kappa k_ij) V_j) V_i at data[bond_pos[b]] (bond b's own entry of row i)
+    and returns -J_ij: the law's sum is the diagonal J_ii = -sum_j J_ij."""
+    volume, w, kappa, delta, bond_pos, data = args
+    Vi, d4 = p
+    k = 6.0 / (d4 * z)
+    c = ((kappa * k) * volume[j]) * Vi
+    data[bond_pos[b]] = c
+    return -c
+
+
+def jacobian_weighted_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """``jacobian_term`` with the quadrature weight w_ij in place of V_j (the weight is chosen by
+    the law, not per bond: a per-bond choice next to the matrix write is much slower)."""
+    volume, w, kappa, delta, bond_pos, data = args
+    Vi, d4 = p
+    k = 6.0 / (d4 * z)
+    c = ((kappa * k) * w[b]) * Vi
+    data[bond_pos[b]] = c
+    return -c
+
+
+FLUX_DIVERGENCE = PointSum(flux_term, point=flux_point)
+FLUX_JACOBIAN = PointSum(jacobian_term, point=jacobian_point)
+FLUX_JACOBIAN_WEIGHTED = PointSum(jacobian_weighted_term, point=jacobian_point)
+
+
+# not a loop law: one least-squares solve per point (a 9 x nb moment matrix) gives all of its bonds' weights at once
 @njit(cache=True, parallel=True)
 def quadrature_weights_kernel(start, stop, offsets, neighbors, x, zeta, volume, delta, w):
     """Per-bond weights w (nb,) closest to the volumes V_j (min sum (w - V)^2 / V) with
@@ -216,12 +234,12 @@ class Diffusion(Material):
         """Flux_Divergence[start:stop] from the current Temperature (ghosts included under MPI)."""
         s = block.fields
         nl = block.bonds
-        bad = flux_divergence_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Volume"], s["Temperature"],
-            self._weights(block), self.kappa, float(self.horizon), s["Flux_Divergence"],
+        args = (s["Volume"], s["Temperature"], self._weights(block), self.kappa, float(self.horizon))
+        compiled(block, FLUX_DIVERGENCE)(
+            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Model_Coordinates"], args, s["Flux_Divergence"]
         )
-        if bad:
-            Q = s["Flux_Divergence"][block.start : block.stop]
+        Q = s["Flux_Divergence"][block.start : block.stop]
+        if not np.isfinite(Q).all():
             k = block.start + int(np.argmax(~np.isfinite(Q)))
             raise InstabilityError(
                 f"the flux divergence of block {block.name!r} is not finite at local point {k} "
@@ -234,10 +252,11 @@ class Diffusion(Material):
         entry at ``bond_pos[b]``, row r's diagonal at ``diag_pos[r]`` (r = row_of_local[i])."""
         s = block.fields
         nl = block.bonds
-        flux_jacobian_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Volume"], self._weights(block),
-            self.kappa, float(self.horizon), row_of_local, bond_pos, diag_pos, data,
-        )
+        diag = np.zeros(s.num_points)
+        args = (s["Volume"], self._weights(block), self.kappa, float(self.horizon), bond_pos, data)
+        law = FLUX_JACOBIAN_WEIGHTED if self.improved else FLUX_JACOBIAN
+        compiled(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Model_Coordinates"], args, diag)
+        data[diag_pos[row_of_local[block.start : block.stop]]] = diag[block.start : block.stop]
 
     # -- the force interface: no force -------------------------------------------------------------
     def force_state(self, block: BlockView, t: np.ndarray) -> None:

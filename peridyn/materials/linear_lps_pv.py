@@ -30,17 +30,16 @@ class defines none).
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
-from numba import njit, prange
 from pydantic import Field, model_validator
 
 from ..core.errors import InputError
 from ..core.fields import FieldSpec, Relation, Temporal
-from ..core.influence import omega
+from ..core.influence import ONE, omega
 from ..core.interfaces import BlockView, ElasticModuli, Material
 from ..core.params import UsedWhen
+from ..core.traversal import BondMap, PointSum
+from ..kernels import compiled
 from .elastic import Elastic, ElasticParams
 from .moduli import IsotropicElasticParams, isotropic_moduli
 
@@ -70,131 +69,205 @@ class LinearLPSPVParams(IsotropicElasticParams):
 
 
 # ------------------------------------------------------------------------------------------------
-# kernels (x, y (n, 3) L; volume (n,) L^3; offsets (n+1,), neighbors (nb,); W (nb,) neighbour
-# weights or empty (then V_j); bond_damage (nb,) or empty; omega_kind / delta / table as in
-# peridyn.core.influence)
+# Loop laws (peridyn.core.traversal), compiled into each loop by the run's backend. The model's
+# sums run over *reference* bonds: kernels are given y = x (Model_Coordinates, (n, 3) L), so the
+# bond context's (ex, ey, ez) = xi = x_j - x_i and L = |xi| (L); the current positions come in
+# args. Common args (x, y, V, W, m, theta, K, mu, omega_kind, delta, table, d, offsets): x, y
+# (n, 3) reference and current positions (L); V (n,) volumes (L^3); W (nb,) neighbour weights
+# (L^3) or empty (then V_j); m (n,) weighted volumes (L^5); theta (n,) dilatations; K, mu (stress);
+# omega_kind / delta / table as in peridyn.core.influence; d (nb,) bond damage or empty;
+# offsets (n+1,) the CSR offsets. An optional array is read only inside the helpers below, never
+# under a branch of a law function itself: a compiled law counts references to an array it
+# holds across such a branch at every bond (several times slower).
 # ------------------------------------------------------------------------------------------------
-@njit(cache=True, parallel=True, error_model="numpy")
-def weighted_volume_kernel(start, stop, offsets, neighbors, x, volume, W, omega_kind, delta, table, m):
-    """m_i = sum_j (omega zeta^2) W_j (L^5), zeta from self - neighbour."""
-    pv = W.shape[0] > 0
-    for i in prange(start, stop):
-        acc = 0.0
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            dx = x[i, 0] - x[j, 0]
-            dy = x[i, 1] - x[j, 1]
-            dz = x[i, 2] - x[j, 2]
-            z2 = (dx * dx + dy * dy) + dz * dz
-            w = omega(omega_kind, math.sqrt(z2), delta, table, b)
-            acc += (w * z2) * (W[b] if pv else volume[j])
-        m[i] = acc
+def neighbor_weight(j, b, W, volume):
+    """W_j of bond b: its ``Neighbor_Volume`` with partial volumes, else V_j (L^3). (Laws run at
+    every step pick their weight by law instead: a per-bond choice is slower.)"""
+    return W[b] if W.shape[0] > 0 else volume[j]
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def dilatation_kernel(start, stop, offsets, neighbors, x, y, volume, W, m, omega_kind, delta, table, bond_damage, theta):
-    """theta_i = (3 / m_i) sum_j ((omega (1-d)) (xi . du)) W_j; 0 for a point without bonds."""
-    pv = W.shape[0] > 0
-    has_damage = bond_damage.shape[0] > 0
-    for i in prange(start, stop):
-        u0 = y[i, 0] - x[i, 0]
-        u1 = y[i, 1] - x[i, 1]
-        u2 = y[i, 2] - x[i, 2]
-        acc = 0.0
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            xi0 = x[j, 0] - x[i, 0]
-            xi1 = x[j, 1] - x[i, 1]
-            xi2 = x[j, 2] - x[i, 2]
-            s = (xi0 * ((y[j, 0] - x[j, 0]) - u0) + xi1 * ((y[j, 1] - x[j, 1]) - u1)) + xi2 * ((y[j, 2] - x[j, 2]) - u2)
-            w = omega(omega_kind, math.sqrt((xi0 * xi0 + xi1 * xi1) + xi2 * xi2), delta, table, b)
-            keep = 1.0 - bond_damage[b] if has_damage else 1.0
-            acc += ((w * keep) * s) * (W[b] if pv else volume[j])
-        theta[i] = acc * (3.0 / m[i]) if offsets[i + 1] > offsets[i] else acc
+def influence(omega_kind, zeta, delta, table, b):
+    """omega of bond b (:func:`peridyn.core.influence.omega`)."""
+    return omega(omega_kind, zeta, delta, table, b)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
-def _bond(x, y, i, j):
-    """xi = x_j - x_i, du = u_j - u_i, |xi|^2 and the dyad product M = xi (xi . du) of a bond."""
-    xi0 = x[j, 0] - x[i, 0]
-    xi1 = x[j, 1] - x[i, 1]
-    xi2 = x[j, 2] - x[i, 2]
-    d0 = (y[j, 0] - x[j, 0]) - (y[i, 0] - x[i, 0])
-    d1 = (y[j, 1] - x[j, 1]) - (y[i, 1] - x[i, 1])
-    d2 = (y[j, 2] - x[j, 2]) - (y[i, 2] - x[i, 2])
-    M0 = ((xi0 * xi0) * d0 + (xi0 * xi1) * d1) + (xi0 * xi2) * d2
-    M1 = ((xi1 * xi0) * d0 + (xi1 * xi1) * d1) + (xi1 * xi2) * d2
-    M2 = ((xi2 * xi0) * d0 + (xi2 * xi1) * d1) + (xi2 * xi2) * d2
-    return xi0, xi1, xi2, (xi0 * xi0 + xi1 * xi1) + xi2 * xi2, M0, M1, M2
+def intact(bond_damage, b):
+    """1 - d of bond b, 1 without damage."""
+    return 1.0 - bond_damage[b] if bond_damage.shape[0] > 0 else 1.0
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def force_state_kernel(start, stop, offsets, neighbors, x, y, m, theta, K, mu, omega_kind, delta, table, bond_damage, T):
-    """T[b] (nb, 3) = (1-d) (T1_i xi + T2_i M) for the bonds of points [start, stop) (force per
-    volume squared)."""
-    has_damage = bond_damage.shape[0] > 0
-    for i in prange(start, stop):
-        for b in range(offsets[i], offsets[i + 1]):
-            xi0, xi1, xi2, z2, M0, M1, M2 = _bond(x, y, i, neighbors[b])
-            w = omega(omega_kind, math.sqrt(z2), delta, table, b)
-            T1 = (((9.0 * K - 15.0 * mu) * w) * theta[i]) / (3.0 * m[i])
-            T2 = ((15.0 * mu) * w) / (m[i] * z2)
-            keep = 1.0 - bond_damage[b] if has_damage else 1.0
-            T[b, 0] = keep * (T1 * xi0 + T2 * M0)
-            T[b, 1] = keep * (T1 * xi1 + T2 * M1)
-            T[b, 2] = keep * (T1 * xi2 + T2 * M2)
+def reverse_intact(bond_damage, reverse, b, k):
+    """1 - d of the reverse bond j->i where ``reverse`` gives it, else ``k`` (1 - d_ij)."""
+    if bond_damage.shape[0] > 0 and reverse.shape[0] > 0 and reverse[b] >= 0:
+        return 1.0 - bond_damage[reverse[b]]
+    return k
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def fused_force_kernel(start, stop, offsets, neighbors, reverse, x, y, W, m, theta, K, mu, omega_kind, delta, table, bond_damage, f):
-    """f_i = sum_j (T_i<xi_ij> - T_j<xi_ji>) W_ij for i in [start, stop), both ends from point
-    quantities: xi and M change sign with the bond's direction, so T_j<xi_ji> = -(1-d_ji) (T1_j xi
-    + T2_j M); ``reverse`` gives d_ji (empty: d_ji = d_ij). W (nb,) the bonds' weights."""
-    has_damage = bond_damage.shape[0] > 0
-    for i in prange(start, stop):
-        fx = 0.0
-        fy = 0.0
-        fz = 0.0
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            xi0, xi1, xi2, z2, M0, M1, M2 = _bond(x, y, i, j)
-            w = omega(omega_kind, math.sqrt(z2), delta, table, b)
-            c1 = (9.0 * K - 15.0 * mu) * w
-            c2 = (15.0 * mu) * w
-            T1i = (c1 * theta[i]) / (3.0 * m[i])
-            T2i = c2 / (m[i] * z2)
-            T1j = (c1 * theta[j]) / (3.0 * m[j])
-            T2j = c2 / (m[j] * z2)
-            ki = 1.0 - bond_damage[b] if has_damage else 1.0
-            kj = ki
-            if has_damage and reverse.shape[0] > 0 and reverse[b] >= 0:
-                kj = 1.0 - bond_damage[reverse[b]]
-            fx += (ki * (T1i * xi0 + T2i * M0) + kj * (T1j * xi0 + T2j * M0)) * W[b]
-            fy += (ki * (T1i * xi1 + T2i * M1) + kj * (T1j * xi1 + T2j * M1)) * W[b]
-            fz += (ki * (T1i * xi2 + T2i * M2) + kj * (T1j * xi2 + T2j * M2)) * W[b]
-        f[i, 0] = fx
-        f[i, 1] = fy
-        f[i, 2] = fz
+def displacement_point(i, args):
+    """u_i = y_i - x_i (L) of the owner point."""
+    x, y = args[0], args[1]
+    return y[i, 0] - x[i, 0], y[i, 1] - x[i, 1], y[i, 2] - x[i, 2]
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def stored_energy_kernel(start, stop, offsets, neighbors, x, y, volume, W, m, theta, K, mu, omega_kind, delta, table, bond_damage, out):
-    """W_i = K theta^2 / 2 + (15 mu / (2 m_i)) sum_j (1-d) omega (e - theta zeta / 3)^2 W_j,
-    e = (xi . du) / zeta (energy per volume)."""
-    pv = W.shape[0] > 0
-    has_damage = bond_damage.shape[0] > 0
-    for i in prange(start, stop):
-        th = theta[i]
-        acc = 0.0
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            xi0, xi1, xi2, z2, M0, M1, M2 = _bond(x, y, i, j)
-            z = math.sqrt(z2)
-            s = (M0 * xi0 + M1 * xi1 + M2 * xi2) / z2  # xi . du
-            ed = s / z - th * z / 3.0
-            keep = 1.0 - bond_damage[b] if has_damage else 1.0
-            acc += (keep * omega(omega_kind, z, delta, table, b)) * ed * ed * (W[b] if pv else volume[j])
-        out[i] = 0.5 * K * th * th + (0.5 * (15.0 * mu) / m[i]) * acc if offsets[i + 1] > offsets[i] else 0.5 * K * th * th
+def dyad(j, ex, ey, ez, u, x, y):
+    """M = xi (xi . du) component by component, du = u_j - u_i (L^3; Peridigm's products)."""
+    u0, u1, u2 = u
+    d0 = (y[j, 0] - x[j, 0]) - u0
+    d1 = (y[j, 1] - x[j, 1]) - u1
+    d2 = (y[j, 2] - x[j, 2]) - u2
+    M0 = ((ex * ex) * d0 + (ex * ey) * d1) + (ex * ez) * d2
+    M1 = ((ey * ex) * d0 + (ey * ey) * d1) + (ey * ez) * d2
+    M2 = ((ez * ex) * d0 + (ez * ey) * d1) + (ez * ez) * d2
+    return M0, M1, M2
+
+
+def weighted_volume_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """(omega |xi|^2) W_j (L^5); args as above (only x, V, W, omega_kind, delta, table read)."""
+    volume, W, omega_kind, delta, table = args[2], args[3], args[8], args[9], args[10]
+    z2 = (ex * ex + ey * ey) + ez * ez
+    w = influence(omega_kind, L, delta, table, b)
+    return (w * z2) * neighbor_weight(j, b, W, volume)
+
+
+def dilatation_share(j, b, ex, ey, ez, L, u, args):
+    """(omega (1-d)) (xi . du) of bond b (L^2); u = u_i."""
+    x, y, volume, W, m, theta, K, mu, omega_kind, delta, table, bond_damage, offsets = args
+    u0, u1, u2 = u
+    s = (ex * ((y[j, 0] - x[j, 0]) - u0) + ey * ((y[j, 1] - x[j, 1]) - u1)) + ez * ((y[j, 2] - x[j, 2]) - u2)
+    w = influence(omega_kind, L, delta, table, b)
+    keep = intact(bond_damage, b)
+    return (w * keep) * s
+
+
+def dilatation_term(i, j, b, ex, ey, ez, L, z, u, args):
+    """((omega (1-d)) (xi . du)) V_j (L^5), without partial volumes."""
+    return dilatation_share(j, b, ex, ey, ez, L, u, args) * args[2][j]
+
+
+def dilatation_partial_term(i, j, b, ex, ey, ez, L, z, u, args):
+    """((omega (1-d)) (xi . du)) W_b (L^5), with partial volumes (the weight is chosen by the
+    law, not per bond)."""
+    return dilatation_share(j, b, ex, ey, ez, L, u, args) * args[3][b]
+
+
+def dilatation_finish(i, acc, u, args):
+    """theta_i = (3 / m_i) acc; acc (0) for a point without bonds."""
+    m, offsets = args[4], args[12]
+    return acc * (3.0 / m[i]) if offsets[i + 1] > offsets[i] else acc
+
+
+def dilatation_plain_term(i, j, b, ex, ey, ez, L, z, u, args):
+    """``dilatation_term`` for omega = 1, no damage, W_j = V_j (the same products): branch-free."""
+    x, y, volume = args[0], args[1], args[2]
+    u0, u1, u2 = u
+    s = (ex * ((y[j, 0] - x[j, 0]) - u0) + ey * ((y[j, 1] - x[j, 1]) - u1)) + ez * ((y[j, 2] - x[j, 2]) - u2)
+    return s * volume[j]
+
+
+def force_state_bond(i, j, b, ex, ey, ez, L, z, u, args):
+    """T_i<xi> = (1-d) (T1_i xi + T2_i M) (force per volume squared), as a (3,) row."""
+    x, y, volume, W, m, theta, K, mu, omega_kind, delta, table, bond_damage, offsets = args
+    M0, M1, M2 = dyad(j, ex, ey, ez, u, x, y)
+    z2 = (ex * ex + ey * ey) + ez * ez
+    w = influence(omega_kind, L, delta, table, b)
+    T1 = (((9.0 * K - 15.0 * mu) * w) * theta[i]) / (3.0 * m[i])
+    T2 = ((15.0 * mu) * w) / (m[i] * z2)
+    keep = intact(bond_damage, b)
+    return keep * (T1 * ex + T2 * M0), keep * (T1 * ey + T2 * M1), keep * (T1 * ez + T2 * M2)
+
+
+def plain_point(i, args):
+    """(u_i, T1_i, m_i) for omega = 1: T1_i = ((9K - 15 mu) theta_i) / (3 m_i)."""
+    m, theta, K, mu = args[4], args[5], args[6], args[7]
+    return displacement_point(i, args), ((9.0 * K - 15.0 * mu) * theta[i]) / (3.0 * m[i]), m[i]
+
+
+def force_state_plain_bond(i, j, b, ex, ey, ez, L, z, p, args):
+    """``force_state_bond`` for omega = 1 and no damage (the same products): branch-free."""
+    x, y, mu = args[0], args[1], args[7]
+    u, T1, mi = p
+    M0, M1, M2 = dyad(j, ex, ey, ez, u, x, y)
+    z2 = (ex * ex + ey * ey) + ez * ez
+    T2 = (15.0 * mu) / (mi * z2)
+    return T1 * ex + T2 * M0, T1 * ey + T2 * M1, T1 * ez + T2 * M2
+
+
+def fused_force_point(i, args):
+    """u_i; clears the y and z sums of f_i (args[-1], written by ``fused_force_term``)."""
+    f = args[14]
+    f[i, 1] = 0.0
+    f[i, 2] = 0.0
+    return displacement_point(i, args)
+
+
+def fused_force_term(i, j, b, ex, ey, ez, L, z, u, args):
+    """(T_i<xi_ij> - T_j<xi_ji>) W_ij, both ends from point quantities: xi and M change sign
+    with the bond's direction, so T_j<xi_ji> = -(1-d_ji) (T1_j xi + T2_j M); ``reverse`` gives
+    d_ji (empty: d_ji = d_ij). The x component is returned (the law's sum is f_i's x, out =
+    f[:, 0]); y and z are added to f[i, 1], f[i, 2] in the same bond order. args: the common ones,
+    then (reverse, f)."""
+    x, y, volume, W, m, theta, K, mu, omega_kind, delta, table, bond_damage, offsets, reverse, f = args
+    M0, M1, M2 = dyad(j, ex, ey, ez, u, x, y)
+    z2 = (ex * ex + ey * ey) + ez * ez
+    w = influence(omega_kind, L, delta, table, b)
+    c1 = (9.0 * K - 15.0 * mu) * w
+    c2 = (15.0 * mu) * w
+    T1i = (c1 * theta[i]) / (3.0 * m[i])
+    T2i = c2 / (m[i] * z2)
+    T1j = (c1 * theta[j]) / (3.0 * m[j])
+    T2j = c2 / (m[j] * z2)
+    ki = intact(bond_damage, b)
+    kj = reverse_intact(bond_damage, reverse, b, ki)
+    f[i, 1] += (ki * (T1i * ey + T2i * M1) + kj * (T1j * ey + T2j * M1)) * W[b]
+    f[i, 2] += (ki * (T1i * ez + T2i * M2) + kj * (T1j * ez + T2j * M2)) * W[b]
+    return (ki * (T1i * ex + T2i * M0) + kj * (T1j * ex + T2j * M0)) * W[b]
+
+
+def energy_point(i, args):
+    """(theta_i, u_i)."""
+    return args[5][i], displacement_point(i, args)
+
+
+def energy_share(j, b, ex, ey, ez, L, p, args):
+    """(1-d) omega (e - theta_i |xi| / 3)^2 of bond b with e = (xi . du) / |xi|."""
+    x, y, volume, W, m, theta, K, mu, omega_kind, delta, table, bond_damage, offsets = args
+    th, u = p
+    M0, M1, M2 = dyad(j, ex, ey, ez, u, x, y)
+    z2 = (ex * ex + ey * ey) + ez * ez
+    s = (M0 * ex + M1 * ey + M2 * ez) / z2  # xi . du
+    ed = s / L - th * L / 3.0
+    keep = intact(bond_damage, b)
+    return (keep * influence(omega_kind, L, delta, table, b)) * ed * ed
+
+
+def stored_energy_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """(1-d) omega (e - theta_i |xi| / 3)^2 V_j (L^5), without partial volumes."""
+    return energy_share(j, b, ex, ey, ez, L, p, args) * args[2][j]
+
+
+def stored_energy_partial_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """(1-d) omega (e - theta_i |xi| / 3)^2 W_b (L^5), with partial volumes."""
+    return energy_share(j, b, ex, ey, ez, L, p, args) * args[3][b]
+
+
+def stored_energy_finish(i, acc, p, args):
+    """W_i = K theta^2 / 2 + (15 mu / (2 m_i)) acc (energy per volume; K theta^2 / 2 alone for a
+    point without bonds)."""
+    m, K, mu, offsets = args[4], args[6], args[7], args[12]
+    th = p[0]
+    return 0.5 * K * th * th + (0.5 * (15.0 * mu) / m[i]) * acc if offsets[i + 1] > offsets[i] else 0.5 * K * th * th
+
+
+WEIGHTED_VOLUME = PointSum(weighted_volume_term)
+DILATATION = PointSum(dilatation_term, point=displacement_point, finish=dilatation_finish)
+DILATATION_PARTIAL = PointSum(dilatation_partial_term, point=displacement_point, finish=dilatation_finish)
+FORCE_STATE = BondMap(force_state_bond, point=displacement_point)  # out: T (nb, 3)
+#: omega = 1, no damage, no partial volumes: laws without the optional arrays
+DILATATION_PLAIN = PointSum(dilatation_plain_term, point=displacement_point, finish=dilatation_finish)
+FORCE_STATE_PLAIN = BondMap(force_state_plain_bond, point=plain_point)
+FUSED_FORCE = PointSum(fused_force_term, point=fused_force_point)  # out: f[:, 0], f (n, 3) in args
+STORED_ENERGY = PointSum(stored_energy_term, point=energy_point, finish=stored_energy_finish)
+STORED_ENERGY_PARTIAL = PointSum(stored_energy_partial_term, point=energy_point, finish=stored_energy_finish)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -244,6 +317,18 @@ class LinearLPSPartialVolume(Material):
     def _weights(self, block: BlockView) -> np.ndarray:
         return block.fields["Neighbor_Volume"] if self.partial else EMPTY
 
+    def _args(self, block: BlockView) -> tuple:
+        """The laws' common args (x, y, V, W, m, theta, K, mu, omega_kind, delta, table, d, offsets)."""
+        s = block.fields
+        kind, delta, table = self._common(block)
+        return (s["Model_Coordinates"], s["Coordinates"], s["Volume"], self._weights(block), s["Weighted_Volume"], s["Dilatation"],
+                self.K, self.mu, kind, delta, table, self._damage(block), block.bonds.offsets)
+
+    def _run(self, block: BlockView, law, args: tuple, out: np.ndarray) -> None:
+        """``law`` over the block's points on the reference bonds (the kernel's y is x)."""
+        s, nl = block.fields, block.bonds
+        compiled(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Model_Coordinates"], args, out)
+
     def initialize(self, block: BlockView) -> None:
         s, nl = block.fields, block.bonds
         if block.influence.needs_table:
@@ -260,14 +345,15 @@ class LinearLPSPartialVolume(Material):
         if self.params.use_analytic_weighted_volume:
             m[block.start : block.stop] = float(self.params.analytic_weighted_volume)
             return
-        kind, delta, table = self._common(block)
-        weighted_volume_kernel(block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Volume"], W, kind, delta, table, m)
+        self._run(block, WEIGHTED_VOLUME, self._args(block), m)
+
+    def _plain(self, block: BlockView) -> bool:
+        """omega = 1, no damage, no partial volumes: the branch-free laws apply."""
+        return block.influence.kind == ONE and not self._damage(block).shape[0] and not self.partial
 
     def precompute(self, block: BlockView) -> None:
-        s, nl = block.fields, block.bonds
-        kind, delta, table = self._common(block)
-        dilatation_kernel(block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Coordinates"], s["Volume"],
-                          self._weights(block), s["Weighted_Volume"], kind, delta, table, self._damage(block), s["Dilatation"])
+        law = DILATATION_PARTIAL if self.partial else DILATATION_PLAIN if self._plain(block) else DILATATION
+        self._run(block, law, self._args(block), block.fields["Dilatation"])
 
     def force_state(self, block: BlockView, T: np.ndarray) -> None:
         if self.partial:
@@ -276,31 +362,21 @@ class LinearLPSPartialVolume(Material):
                 "no implicit finite-difference tangent)",
                 path=tuple(self.options.get("path", ())) + ("Use Partial Volume",),
             )
-        s, nl = block.fields, block.bonds
-        kind, delta, table = self._common(block)
-        force_state_kernel(block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Coordinates"],
-                           s["Weighted_Volume"], s["Dilatation"], self.K, self.mu, kind, delta, table, self._damage(block), T)
+        self._run(block, FORCE_STATE_PLAIN if self._plain(block) else FORCE_STATE, self._args(block), T)
 
     def force_fused(self, block: BlockView, force_density: np.ndarray) -> bool:
         if not self.partial:
             return False  # the engine's gather of the vector force states
-        s, nl = block.fields, block.bonds
-        kind, delta, table = self._common(block)
-        damage = self._damage(block)
-        reverse = nl.reverse() if damage.shape[0] and not block.damage_symmetric else EMPTY_INDEX
-        fused_force_kernel(block.start, block.stop, nl.offsets, nl.neighbors, reverse, s["Model_Coordinates"], s["Coordinates"],
-                           self._weights(block), s["Weighted_Volume"], s["Dilatation"], self.K, self.mu, kind, delta, table, damage, force_density)
+        nl = block.bonds
+        reverse = nl.reverse() if self._damage(block).shape[0] and not block.damage_symmetric else EMPTY_INDEX
+        self._run(block, FUSED_FORCE, self._args(block) + (reverse, force_density), force_density[:, 0])
         return True
 
     def tangent(self, block: BlockView, target) -> bool:
         return False  # finite differences (Peridigm: the base class's)
 
     def stored_energy_density(self, block: BlockView, out: np.ndarray) -> None:
-        s, nl = block.fields, block.bonds
-        kind, delta, table = self._common(block)
-        stored_energy_kernel(block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Coordinates"], s["Volume"],
-                             self._weights(block), s["Weighted_Volume"], s["Dilatation"], self.K, self.mu, kind, delta, table,
-                             self._damage(block), out)
+        self._run(block, STORED_ENERGY_PARTIAL if self.partial else STORED_ENERGY, self._args(block), out)
 
 
 class ElasticPVParams(ElasticParams):

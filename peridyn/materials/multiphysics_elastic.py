@@ -29,15 +29,15 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
 from pydantic import Field, field_validator
 
 from ..core.errors import InputError
 from ..core.fields import FieldSpec, Relation
-from ..core.influence import omega
+from ..core.influence import ONE, omega
 from ..core.interfaces import BlockView, ElasticModuli, Material
+from ..core.traversal import BondMap, PointSum
 from ..kernels import compiled
-from .elastic import DILATATION, EMPTY, WEIGHTED_VOLUME
+from .elastic import DILATATION, EMPTY, WEIGHTED_VOLUME, dilatation_finish
 from .moduli import IsotropicElasticParams, isotropic_moduli
 
 #: the pressure fields (node scalars): current trial value, accumulated value, rate; flow density
@@ -78,110 +78,169 @@ class MultiphysicsElasticParams(IsotropicElasticParams):
 
 
 # ------------------------------------------------------------------------------------------------
-# kernels (x, y (n, 3) L; volume (n,) L^3; p (n,) pressure; offsets (n+1,), neighbors (nb,) int32;
-# per-bond arrays (nb,); empty arrays mean "feature off")
+# Loop laws (peridyn.core.traversal), compiled into each loop by the run's backend. Bond context
+# (i, j, b, ex, ey, ez, L, z, p, args): eta = (ex, ey, ez) = y_j - y_i, L = |eta| (L), z = |xi|
+# (L). Arrays: m, theta, scf, P (n,) weighted volume (L^5), dilatation, surface correction factor,
+# fluid pressure; d (nb,) bond damage or empty; dT (n,) temperature change or empty (no thermal
+# strain). The general dilatation and the weighted volume are Elastic's laws
+# (peridyn.materials.elastic). Per-point switches (thermal strain) come with the point's value,
+# and an optional array is read only inside the helpers below, never under a branch of a law
+# function itself: a compiled law counts references to an array it holds across such a branch at
+# every bond (several times slower).
 # ------------------------------------------------------------------------------------------------
-@njit(cache=True, parallel=True, error_model="numpy")
-def coupled_force_state_kernel(start, stop, offsets, neighbors, zeta, y, m, theta, scf, p, K, mu, omega_kind, delta, omega_table, bond_damage, dT, alpha_T, t):
-    """Scalar force state t[b] (M L^-5 T^-2) of the bonds of points [start, stop) with the
-    owner's pressure in c1 (Peridigm's computeInternalForceLinearElasticCoupled)."""
-    has_damage = bond_damage.shape[0] > 0
+def influence(omega_kind, zeta, delta, table, b):
+    """omega of bond b (:func:`peridyn.core.influence.omega`)."""
+    return omega(omega_kind, zeta, delta, table, b)
+
+
+def damage_of(bond_damage, b):
+    """d of bond b, 0 without damage."""
+    return bond_damage[b] if bond_damage.shape[0] > 0 else 0.0
+
+
+def intact(bond_damage, b):
+    """1 - d of bond b, 1 without damage."""
+    return 1.0 - bond_damage[b] if bond_damage.shape[0] > 0 else 1.0
+
+
+def thermal_shift(i, args):
+    """(thermal strain on, a_T dT_i) of the owner point (0 without); args[10], args[11] = (dT,
+    a_T) in the force-state and the energy args alike."""
+    dT, alpha_T = args[10], args[11]
     thermal = dT.shape[0] > 0
-    for i in prange(start, stop):
-        mi = m[i]
-        if mi == 0.0:
-            for b in range(offsets[i], offsets[i + 1]):
-                t[b] = 0.0
-            continue
-        alpha = ((15.0 * mu) / mi) * scf[i]
-        shift = alpha_T * dT[i] if thermal else 0.0
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            z = zeta[b]
-            ex = y[j, 0] - y[i, 0]
-            ey = y[j, 1] - y[i, 1]
-            ez = y[j, 2] - y[i, 2]
-            e = math.sqrt(ex * ex + ey * ey + ez * ez) - z
-            if thermal:
-                e -= shift * z
-            w = omega(omega_kind, z, delta, omega_table, b)
-            keep = 1.0 - bond_damage[b] if has_damage else 1.0
-            c1 = (w * theta[i]) * ((3.0 * K) / mi - alpha / 3.0) - (((3.0 * w) / mi) * 1.0) * p[i]
-            t[b] = keep * (c1 * z + ((keep * w) * alpha) * e)
+    return thermal, alpha_T * dT[i] if thermal else 0.0
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+def coupled_point(i, args):
+    """(m_i, alpha_i = (15 mu / m_i) s_i, thermal strain on, a_T dT_i, theta_i, 3K/m_i - alpha_i/3,
+    P_i); alpha and 3K/m - alpha/3 are 0 for a point without weighted volume. args (m, theta, scf,
+    P, K, mu, omega_kind, delta, table, d, dT, a_T)."""
+    m, theta, scf, P, K, mu = args[0], args[1], args[2], args[3], args[4], args[5]
+    mi = m[i]
+    alpha = ((15.0 * mu) / mi) * scf[i] if mi != 0.0 else 0.0
+    cK = (3.0 * K) / mi - alpha / 3.0 if mi != 0.0 else 0.0
+    thermal, shift = thermal_shift(i, args)
+    return mi, alpha, thermal, shift, theta[i], cK, P[i]
+
+
+def coupled_force_state_bond(i, j, b, ex, ey, ez, L, z, q, args):
+    """t_ij (M L^-5 T^-2) with the owner's pressure in c1 (Peridigm's
+    computeInternalForceLinearElasticCoupled); 0 where m_i = 0. Reads only the arrays it needs
+    (an array held across the early return would be reference-counted at every bond)."""
+    omega_kind, delta, omega_table, bond_damage = args[6], args[7], args[8], args[9]
+    mi, alpha, thermal, shift, th, cK, Pi = q
+    if mi == 0.0:
+        return 0.0
+    e = L - z
+    if thermal:
+        e -= shift * z
+    w = influence(omega_kind, z, delta, omega_table, b)
+    keep = intact(bond_damage, b)
+    c1 = (w * th) * cK - (((3.0 * w) / mi) * 1.0) * Pi
+    return keep * (c1 * z + ((keep * w) * alpha) * e)
+
+
+def coupled_plain_point(i, args):
+    """(m_i, alpha_i, c1_i) for omega = 1: c1 = theta_i (3K/m_i - alpha_i/3) - (3/m_i) P_i (per
+    point; the products of ``coupled_force_state_bond`` with w = 1)."""
+    m, theta, scf, P, K, mu = args[0], args[1], args[2], args[3], args[4], args[5]
+    mi = m[i]
+    if mi == 0.0:
+        return mi, 0.0, 0.0
+    alpha = ((15.0 * mu) / mi) * scf[i]
+    return mi, alpha, theta[i] * ((3.0 * K) / mi - alpha / 3.0) - ((3.0 / mi) * 1.0) * P[i]
+
+
+def coupled_force_state_plain_bond(i, j, b, ex, ey, ez, L, z, q, args):
+    """``coupled_force_state_bond`` for omega = 1, no damage, no thermal strain (the same
+    products): no branch on an optional array."""
+    mi, alpha, c1 = q
+    if mi == 0.0:
+        return 0.0
+    return c1 * z + alpha * (L - z)
+
+
+def dilatation_plain_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """Elastic's dilatation term for omega = 1, no damage, no thermal strain (the same
+    products); args (V, m) as Elastic's."""
+    return ((3.0 * z) * (L - z)) * args[0][j]
+
+
 def flow_coefficients(k, rho_f, mu, delta):
     """(k_bar, C): the diagonal of the nonlocal permeability and (rho_f/mu) (4/(pi delta^2))."""
     kbar = k - 0.25 * (3.0 * k)
     return kbar, (rho_f / mu) * (4.0 / ((math.pi * delta) * delta))
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def flow_bond_kernel(start, stop, offsets, neighbors, y, p, bond_damage, dT, c_T, k, rho_f, mu_f, k_max, a_p, d_c, delta, q):
-    """q[b] = C (k_e / |eta|^4) (p_j - p_i) for the bonds of points [start, stop) (pressure per
-    time per volume; Peridigm's computeInternalFluidFlow). Returns the number of non-finite q."""
-    has_damage = bond_damage.shape[0] > 0
-    thermal = dT.shape[0] > 0
-    bad = 0
-    for i in prange(start, stop):
-        mu = mu_f * math.exp(c_T * dT[i]) if thermal else mu_f
-        kbar, C = flow_coefficients(k, rho_f, mu, delta)
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            e0 = y[j, 0] - y[i, 0]
-            e1 = y[j, 1] - y[i, 1]
-            e2 = y[j, 2] - y[i, 2]
-            L = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
-            # the sequential sum over row, col of (eta_row K_bar[row, col]) eta_col (zeros included)
-            ke = 0.0
-            ke += (e0 * kbar) * e0
-            ke += (e0 * 0.0) * e1
-            ke += (e0 * 0.0) * e2
-            ke += (e1 * 0.0) * e0
-            ke += (e1 * kbar) * e1
-            ke += (e1 * 0.0) * e2
-            ke += (e2 * 0.0) * e0
-            ke += (e2 * 0.0) * e1
-            ke += (e2 * kbar) * e2
-            d = bond_damage[b] if has_damage else 0.0
-            ke = ke + (k_max - ke) * (1.0 / (1.0 + math.exp(a_p * (d - d_c))))
-            qb = (C * (ke / math.pow(L, 4.0))) * (p[j] - p[i])
-            q[b] = qb
-            if not np.isfinite(qb):
-                bad += 1
-    return bad
+def flow_point(i, args):
+    """(k_bar, C) of the owner point (its viscosity mu_f exp(c_T dT_i) with thermal strain).
+    args (P, d, dT, c_T, k, rho_f, mu_f, k_max, a_p, d_c, delta)."""
+    P, bond_damage, dT, c_T, k, rho_f, mu_f, k_max, a_p, d_c, delta = args
+    mu = mu_f * math.exp(c_T * dT[i]) if dT.shape[0] > 0 else mu_f
+    return flow_coefficients(k, rho_f, mu, delta)
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def stored_energy_kernel(start, stop, offsets, neighbors, x, y, volume, m, theta, scf, K, mu, omega_kind, delta, omega_table, bond_damage, dT, alpha_T, W):
-    """W_i = K theta^2 / 2 + (alpha / 2) sum_j (1-d) omega e_d^2 V_j, alpha = (15 mu / m) s
-    (energy per volume; Peridigm's computeStoredElasticEnergyDensity: the pressure does not enter)."""
-    has_damage = bond_damage.shape[0] > 0
-    thermal = dT.shape[0] > 0
-    for i in prange(start, stop):
-        if m[i] == 0.0:
-            W[i] = 0.0
-            continue
-        alpha = ((15.0 * mu) / m[i]) * scf[i]
-        th = theta[i]
-        acc = 0.0
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            dx = x[i, 0] - x[j, 0]
-            dy = x[i, 1] - x[j, 1]
-            dz = x[i, 2] - x[j, 2]
-            L0 = math.sqrt(dx * dx + dy * dy + dz * dz)
-            ex = y[i, 0] - y[j, 0]
-            ey = y[i, 1] - y[j, 1]
-            ez = y[i, 2] - y[j, 2]
-            L = math.sqrt(ex * ex + ey * ey + ez * ez)
-            if thermal:
-                L -= (alpha_T * dT[i]) * L0
-            ed = (L - L0) - (th * L0) / 3.0
-            keep = 1.0 - bond_damage[b] if has_damage else 1.0
-            acc += (((keep * omega(omega_kind, L0, delta, omega_table, b)) * ed) * ed) * volume[j]
-        W[i] = ((0.5 * K) * th) * th + (0.5 * alpha) * acc
+def flow_bond(i, j, b, ex, ey, ez, L, z, q, args):
+    """q_ij = C (k_e / |eta|^4) (P_j - P_i) (pressure per time per volume; Peridigm's
+    computeInternalFluidFlow)."""
+    P, bond_damage, dT, c_T, k, rho_f, mu_f, k_max, a_p, d_c, delta = args
+    kbar, C = q
+    # the sequential sum over row, col of (eta_row K_bar[row, col]) eta_col (zeros included)
+    ke = 0.0
+    ke += (ex * kbar) * ex
+    ke += (ex * 0.0) * ey
+    ke += (ex * 0.0) * ez
+    ke += (ey * 0.0) * ex
+    ke += (ey * kbar) * ey
+    ke += (ey * 0.0) * ez
+    ke += (ez * 0.0) * ex
+    ke += (ez * 0.0) * ey
+    ke += (ez * kbar) * ez
+    d = damage_of(bond_damage, b)
+    ke = ke + (k_max - ke) * (1.0 / (1.0 + math.exp(a_p * (d - d_c))))
+    return (C * (ke / math.pow(L, 4.0))) * (P[j] - P[i])
+
+
+def coupled_energy_point(i, args):
+    """(theta_i, thermal strain on, a_T dT_i); args (x, V, m, K, theta, mu, omega_kind, delta,
+    table, d, dT, a_T, scf), Elastic's stored-energy args and the surface correction factors."""
+    thermal, shift = thermal_shift(i, args)
+    return args[4][i], thermal, shift
+
+
+def coupled_energy_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """(1-d) omega e_d^2 V_j with e_d = e - theta_i |xi| / 3, |xi| from the reference positions x
+    (Elastic's arithmetic; the pressure does not enter)."""
+    x, volume, m, K, theta, mu, omega_kind, delta, omega_table, bond_damage, dT, alpha_T, scf = args
+    th, thermal, shift = p
+    dx = x[i, 0] - x[j, 0]
+    dy = x[i, 1] - x[j, 1]
+    dz = x[i, 2] - x[j, 2]
+    L0 = math.sqrt(dx * dx + dy * dy + dz * dz)
+    if thermal:
+        L -= shift * L0
+    ed = (L - L0) - (th * L0) / 3.0
+    keep = intact(bond_damage, b)
+    return (((keep * influence(omega_kind, L0, delta, omega_table, b)) * ed) * ed) * volume[j]
+
+
+def coupled_energy_finish(i, acc, p, args):
+    """W_i = K theta^2 / 2 + (alpha / 2) acc, alpha = (15 mu / m_i) s_i (energy per volume;
+    Peridigm's computeStoredElasticEnergyDensity); 0 without weighted volume."""
+    m, K, mu, scf = args[2], args[3], args[5], args[12]
+    th = p[0]
+    if m[i] == 0.0:
+        return 0.0
+    alpha = ((15.0 * mu) / m[i]) * scf[i]
+    return ((0.5 * K) * th) * th + (0.5 * alpha) * acc
+
+
+COUPLED_FORCE_STATE = BondMap(coupled_force_state_bond, point=coupled_point)
+#: omega = 1, no damage, no thermal strain: laws without the optional arrays
+COUPLED_FORCE_STATE_PLAIN = BondMap(coupled_force_state_plain_bond, point=coupled_plain_point)
+DILATATION_PLAIN = PointSum(dilatation_plain_term, finish=dilatation_finish)
+FLOW = BondMap(flow_bond, point=flow_point)
+COUPLED_STORED_ENERGY = PointSum(coupled_energy_term, point=coupled_energy_point, finish=coupled_energy_finish)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -283,43 +342,45 @@ class MultiphysicsElastic(Material):
             shear_correction_kernel(block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Volume"], s["Weighted_Volume"], kind, delta, table, out)
             out[block.start : block.stop] = 1.0 / out[block.start : block.stop]  # Peridigm's factor, not inverted
 
+    def _plain(self, block: BlockView) -> bool:
+        """omega = 1, no damage, no thermal strain: the branch-free laws apply."""
+        return block.influence.kind == ONE and not self._damage(block).shape[0] and not self.thermal
+
     def precompute(self, block: BlockView) -> None:
         s, nl = block.fields, block.bonds
         kind, delta, table = self._common(block)
         dT, aT = self._dT(block)
         args = (s["Volume"], s["Weighted_Volume"], kind, delta, table, self._damage(block), dT, aT)
-        compiled(block, DILATATION)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, s["Dilatation"])
+        law = DILATATION_PLAIN if self._plain(block) else DILATATION
+        compiled(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, s["Dilatation"])
 
     def force_state(self, block: BlockView, t: np.ndarray) -> None:
         s, nl = block.fields, block.bonds
         kind, delta, table = self._common(block)
         dT, aT = self._dT(block)
-        damage = self._damage(block)
-        coupled_force_state_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], s["Weighted_Volume"], s["Dilatation"],
-            self.scf(block), s["Fluid_Pressure_Y"], self.K, self.mu, kind, delta, table, damage, dT, aT, t,
-        )
+        args = (s["Weighted_Volume"], s["Dilatation"], self.scf(block), s["Fluid_Pressure_Y"], self.K, self.mu, kind, delta, table,
+                self._damage(block), dT, aT)
+        law = COUPLED_FORCE_STATE_PLAIN if self._plain(block) else COUPLED_FORCE_STATE
+        compiled(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, t)
         self.flow_state(block)
 
     def stored_energy_density(self, block: BlockView, out: np.ndarray) -> None:
         s, nl = block.fields, block.bonds
         kind, delta, table = self._common(block)
         dT, aT = self._dT(block)
-        stored_energy_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Coordinates"], s["Volume"], s["Weighted_Volume"],
-            s["Dilatation"], self.scf(block), self.K, self.mu, kind, delta, table, self._damage(block), dT, aT, out,
-        )
+        args = (s["Model_Coordinates"], s["Volume"], s["Weighted_Volume"], self.K, s["Dilatation"], self.mu, kind, delta, table,
+                self._damage(block), dT, aT, self.scf(block))
+        compiled(block, COUPLED_STORED_ENERGY)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, out)
 
     def flow_state(self, block: BlockView) -> None:
         """The per-bond flow q (field ``Fluid_Flow_Bond``) of the block's points' bonds."""
         s, nl = block.fields, block.bonds
         dT, _ = self._dT(block)
         c_T, k, rho_f, mu_f, k_max, a_p, d_c = self.flow_parameters()
-        bad = flow_bond_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, s["Coordinates"], s["Fluid_Pressure_Y"], self._damage(block), dT,
-            c_T, k, rho_f, mu_f, k_max, a_p, d_c, float(self.horizon), s[FLOW_BOND_FIELD],
-        )
-        if bad:
+        q = s[FLOW_BOND_FIELD]
+        args = (s["Fluid_Pressure_Y"], self._damage(block), dT, c_T, k, rho_f, mu_f, k_max, a_p, d_c, float(self.horizon))
+        compiled(block, FLOW)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, q)
+        if not np.isfinite(q[nl.offsets[block.start] : nl.offsets[block.stop]]).all():
             from ..core.errors import InstabilityError
 
             raise InstabilityError(

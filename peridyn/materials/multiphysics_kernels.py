@@ -14,6 +14,11 @@ For point i with family S_i = [i, N_i...] (Peridigm's local order), its bonds b 
 
 Every row of the local matrix is multiplied by the volume of its point, and the local matrices
 are added into the 4x4-block BSR matrix point by point in Peridigm's evaluation order.
+
+These loops are written by hand, not as loop laws (:mod:`peridyn.core.traversal`): each point
+fills a dense local matrix over its whole family (columns for every neighbor, rows for the
+reactions) that is then scattered into the block-sparse matrix, which none of the three laws
+(a sum per point, a value per bond, a pair force) expresses.
 """
 from __future__ import annotations
 
@@ -42,6 +47,7 @@ def block_position(indptr, indices, row, col):
     return -1
 
 
+# not a loop law: tangent assembly (a dense local 4 ns x 4 ns Jacobian per point over its family, then added into a 4x4-block BSR matrix)
 @njit(cache=True, error_model="numpy")
 def local_coupled_jacobian(i, offsets, neighbors, zeta, y, volume, m, theta, scf, p, K, mu, omega_kind, delta, omega_table,
                            bond_damage, dT, alpha_T, c_T, k, rho_f, mu_f, k_max, a_p, d_c, S, Kl):
@@ -161,6 +167,7 @@ def local_coupled_jacobian(i, offsets, neighbors, zeta, y, volume, m, theta, scf
     return ns
 
 
+# not a loop law: tangent assembly (serial scatter of the local Jacobians into the 4x4-block BSR matrix, in evaluation order)
 @njit(cache=True, error_model="numpy")
 def coupled_tangent_kernel(start, stop, eval_rank, offsets, neighbors, zeta, y, volume, m, theta, scf, p, K, mu, omega_kind, delta,
                            omega_table, bond_damage, dT, alpha_T, c_T, k, rho_f, mu_f, k_max, a_p, d_c, row_of_local, indptr, indices, data):

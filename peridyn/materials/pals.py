@@ -36,6 +36,7 @@ from ..core.errors import InputError
 from ..core.fields import FieldSpec, Relation, Temporal
 from ..core.influence import NAMED
 from ..core.interfaces import BlockView, ElasticModuli, Material
+from ..kernels import compiled
 from . import pals_kernels as kern
 from .moduli import IsotropicElasticParams, isotropic_moduli
 
@@ -119,18 +120,22 @@ class Pals(Material):
         if self.lam.shape[0] != n:
             self.lam = np.zeros((n, 6))
             self.tau = np.zeros((n, 6))
-        bad = kern.initialize_kernel(block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Volume"],
-                                     self.kind_w, self.kind_s, self._delta(block), self.lam, self.tau, s["Weighted_Volume"])
+        delta = self._delta(block)
+        bad = kern.multipliers_kernel(block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Volume"],
+                                      self.kind_w, self.kind_s, delta, self.lam, self.tau)
         if bad >= 0:
             gid = int(block.extras["gid"][bad]) + 1 if "gid" in block.extras else int(bad) + 1
             raise InputError(f"Pals: the Lagrange-multiplier matrix of point {gid} (block {block.name}) is singular: "
                              f"it has {int(nl.offsets[bad + 1] - nl.offsets[bad])} neighbors",
                              path=self.options.get("path", ()), fix="use a larger horizon: every point needs neighbors in several directions")
+        # the sums over reference bonds: the kernels' y is x
+        self._run(block, kern.WEIGHTED_VOLUME, (s["Volume"], self.tau, self.kind_s, delta), s["Weighted_Volume"], reference=True)
         if self.W.shape[0] != nl.num_bonds:
             self.W = np.zeros(nl.num_bonds)
             self.Sg = np.zeros(nl.num_bonds)
-        kern.bond_influence_kernel(block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Bond_Length"],
-                                   self.lam, self.tau, self.kind_w, self.kind_s, self._delta(block), self.W, self.Sg)
+        influence = (self.lam, self.tau, self.kind_w, self.kind_s, delta)
+        self._run(block, kern.DILATATION_INFLUENCE, influence, self.W, reference=True)
+        self._run(block, kern.DEVIATORIC_INFLUENCE, influence, self.Sg, reference=True)
         lo, hi = block.start, block.stop
         for k, name in enumerate(MULTIPLIER_FIELDS):
             if name in s:
@@ -141,19 +146,21 @@ class Pals(Material):
         if "Normalized_Weighted_Volume" in s:
             s["Normalized_Weighted_Volume"][lo:hi] = 0.0  # registered but never filled by Peridigm
 
-    def precompute(self, block: BlockView) -> None:
+    def _run(self, block: BlockView, law, args: tuple, out: np.ndarray, reference: bool = False) -> None:
+        """``law`` over the block's points: on the current bonds, or on the reference ones."""
         s, nl = block.fields, block.bonds
-        kern.precompute_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], s["Volume"], self.W, self.Sg,
-            s["Weighted_Volume"], self.K, self.mu, self._damage(block), s["Dilatation"], s["Pals_Pressure"],
-        )
+        y = s["Model_Coordinates"] if reference else s["Coordinates"]
+        compiled(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], y, args, out)
+
+    def precompute(self, block: BlockView) -> None:
+        """Dilatation theta_i and the Pals pressure p_i of the block's points."""
+        s = block.fields
+        args = (s["Volume"], self.W, self.Sg, s["Weighted_Volume"], self.K, 2.0 * self.mu, self._damage(block), s["Pals_Pressure"])
+        self._run(block, kern.THETA_PRESSURE, args, s["Dilatation"])
 
     def force_state(self, block: BlockView, t: np.ndarray) -> None:
-        s, nl = block.fields, block.bonds
-        kern.force_state_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], self.W, self.Sg,
-            s["Dilatation"], s["Pals_Pressure"], self.mu, self._damage(block), t,
-        )
+        s = block.fields
+        self._run(block, kern.FORCE_STATE, (self.W, self.Sg, s["Dilatation"], s["Pals_Pressure"], 2.0 * self.mu, self._damage(block)), t)
 
     def tangent(self, block: BlockView, target) -> bool:
         """Peridigm's central finite-difference tangent (its only one for Pals), compiled:
@@ -173,8 +180,5 @@ class Pals(Material):
         return True
 
     def stored_energy_density(self, block: BlockView, out: np.ndarray) -> None:
-        s, nl = block.fields, block.bonds
-        kern.stored_energy_kernel(
-            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], s["Volume"], self.Sg,
-            s["Dilatation"], self.K, self.mu, self._damage(block), out,
-        )
+        s = block.fields
+        self._run(block, kern.STORED_ENERGY, (s["Volume"], self.Sg, s["Dilatation"], self.K, self.mu, self._damage(block)), out)

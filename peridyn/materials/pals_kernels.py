@@ -1,9 +1,14 @@
-"""Numba kernels of the ``Pals`` material (:mod:`peridyn.materials.pals`; PERIDIGM_MODELS.md §4).
+"""Kernels and loop laws of the ``Pals`` material (:mod:`peridyn.materials.pals`;
+PERIDIGM_MODELS.md §4).
 
 Shapes: x, y (n, 3) reference and current positions (L); volume (n,) (L^3); offsets (n+1,),
 neighbors (nb,) int32 CSR bonds; zeta (nb,) reference bond lengths (L); lam, tau (n, 6) the
-dilatation and deviatoric Lagrange multipliers of each point (L^-7); per-point arrays (n,); bond_damage (nb,) or empty (no damage model). Kernels write rows
-[start, stop) only, and each point is handled by one thread (``prange`` over points, no scatter).
+dilatation and deviatoric Lagrange multipliers of each point (L^-7); per-point arrays (n,);
+bond_damage (nb,) or empty (no damage model). The bond influences, the weighted volume, the
+dilatation and pressure, the force state and the energy are loop laws
+(:mod:`peridyn.core.traversal`) that the run's backend compiles; the Lagrange multipliers (a
+6x6 solve per point) and the finite-difference tangent are written by hand. Every loop writes
+the rows [start, stop) only, and each point is handled by one thread (no scatter).
 
 Notation of one bond of point i: xi = (a, b, c) = x_j - x_i, r = |xi| = sqrt((a a + b b) + c c),
 eta = y_j - y_i, e = |eta| - r (the extension). The bases of the multipliers are
@@ -32,6 +37,7 @@ from numba import njit, prange
 
 from ..core.influence import omega as omega_0
 from ..core.assembly import local_scalar_state_force_kernel, scatter_local_kernel
+from ..core.traversal import BondMap, PointSum
 
 NUM_MULTIPLIERS = 6
 NO_TABLE = np.zeros(0)  # omega_0 is always a named function (never a per-bond table)
@@ -204,26 +210,15 @@ def lagrange_point(i, offsets, neighbors, x, volume, kind_w, kind_s, delta, lam,
     return True
 
 
+# not a loop law: a 6x6 moment matrix pair per point, accumulated over the family and solved by LU (lagrange_point)
 @njit(cache=True, parallel=True, error_model="numpy")
-def initialize_kernel(start, stop, offsets, neighbors, x, volume, kind_w, kind_s, delta, lam, tau, m):
-    """Multipliers lam, tau and weighted volume m_i = sum_j (sigma |xi|^2) V_j (dimensionless) of the points
-    [start, stop). Returns the first point whose matrices are singular, or -1."""
+def multipliers_kernel(start, stop, offsets, neighbors, x, volume, kind_w, kind_s, delta, lam, tau):
+    """Multipliers lam, tau of the points [start, stop). Returns the first point whose matrices
+    are singular, or -1."""
     bad = np.full(stop - start, -1, dtype=np.int64)
     for i in prange(start, stop):
         if not lagrange_point(i, offsets, neighbors, x, volume, kind_w, kind_s, delta, lam, tau):
             bad[i - start] = i
-            m[i] = 0.0
-            continue
-        acc = 0.0
-        for bnd in range(offsets[i], offsets[i + 1]):
-            j = neighbors[bnd]
-            a = x[j, 0] - x[i, 0]
-            b = x[j, 1] - x[i, 1]
-            c = x[j, 2] - x[i, 2]
-            z2 = (a * a + b * b) + c * c
-            s = deviatoric_influence(kind_s, delta, math.sqrt(z2), a, b, c, tau, i)
-            acc += (s * z2) * volume[j]
-        m[i] = acc
     for k in range(stop - start):
         if bad[k] >= 0:
             return bad[k]
@@ -231,27 +226,128 @@ def initialize_kernel(start, stop, offsets, neighbors, x, volume, kind_w, kind_s
 
 
 # ------------------------------------------------------------------------------------------------
-# dilatation and pressure (precompute), force state, energy
+# bond influences, weighted volume, dilatation and pressure, force state, energy: loop laws
+# (peridyn.core.traversal) compiled into each loop by the run's backend. Bond context (i, j, b,
+# ex, ey, ez, L, z, p, args): (ex, ey, ez) = y_j - y_i of the kernel's y, L its length (L), and
+# z = r = |xi| (L). The influences and the weighted volume are sums over reference bonds (the
+# kernel's y is x, so (ex, ey, ez) = xi); the others over the current ones.
+# W, Sg (nb,): omega and sigma of every bond; d (nb,) bond damage or empty.
 # ------------------------------------------------------------------------------------------------
-@njit(cache=True, parallel=True, error_model="numpy")
-def bond_influence_kernel(start, stop, offsets, neighbors, x, zeta, lam, tau, kind_w, kind_s, delta, W, Sg):
-    """omega (W) and sigma (Sg) of every bond of the points [start, stop) (per L^5): they depend
-    on the reference bond and the point's multipliers only, so they are computed once."""
-    for i in prange(start, stop):
-        for bnd in range(offsets[i], offsets[i + 1]):
-            j = neighbors[bnd]
-            a = x[j, 0] - x[i, 0]
-            b = x[j, 1] - x[i, 1]
-            c = x[j, 2] - x[i, 2]
-            r = zeta[bnd]
-            W[bnd] = dilatation_influence(kind_w, delta, r, a, b, c, lam, i)
-            Sg[bnd] = deviatoric_influence(kind_s, delta, r, a, b, c, tau, i)
+def dilatation_influence_bond(i, j, b, ex, ey, ez, L, z, p, args):
+    """omega of bond b (per L^5); args (lam, tau, kind_w, kind_s, delta); y = x."""
+    lam, tau, kind_w, kind_s, delta = args
+    return dilatation_influence(kind_w, delta, z, ex, ey, ez, lam, i)
+
+
+def deviatoric_influence_bond(i, j, b, ex, ey, ez, L, z, p, args):
+    """sigma of bond b (per L^5); args (lam, tau, kind_w, kind_s, delta); y = x."""
+    lam, tau, kind_w, kind_s, delta = args
+    return deviatoric_influence(kind_s, delta, z, ex, ey, ez, tau, i)
+
+
+def weighted_volume_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """(sigma |xi|^2) V_j, the sum m_i is dimensionless; args (V, tau, kind_s, delta); y = x."""
+    volume, tau, kind_s, delta = args
+    z2 = (ex * ex + ey * ey) + ez * ez
+    s = deviatoric_influence(kind_s, delta, L, ex, ey, ez, tau, i)
+    return (s * z2) * volume[j]
 
 
 @njit(cache=True, inline="always", error_model="numpy")
+def theta_p_bond(bnd, r, e, V, W, Sg, two_mu, bond_damage):
+    """(1-d) ((omega r) e) V and (1-d) (-((2 mu)(sigma r))/3) e V of bond bnd: its shares of
+    theta_i and of the pressure's bond sum."""
+    if bond_damage.shape[0] > 0:
+        keep = 1.0 - float(bond_damage[bnd])
+        return keep * (((W[bnd] * r) * e) * V), keep * ((-((two_mu * (Sg[bnd] * r)) / 3.0) * e) * V)
+    return ((W[bnd] * r) * e) * V, (-((two_mu * (Sg[bnd] * r)) / 3.0) * e) * V
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def force_state_value(bnd, r, e, W, Sg, theta_i, p_i, two_mu, bond_damage):
+    """t = (1-d) ((p_i omega) r + ((2 mu) sigma) e_d), e_d = e - (theta_i r)/3 (M L^-5 T^-2)."""
+    ed = e - (theta_i * r) / 3.0
+    tb = (p_i * W[bnd]) * r + (two_mu * Sg[bnd]) * ed
+    if bond_damage.shape[0] > 0:
+        tb = (1.0 - float(bond_damage[bnd])) * tb
+    return tb
+
+
+def theta_point(i, args):
+    """Clears the pressure's bond sum P[i] (written by ``theta_term``); args (V, W, Sg, m, K,
+    two_mu, d, P)."""
+    args[7][i] = 0.0
+    return 0.0
+
+
+def theta_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """The bond's share of theta_i (returned) and of p_i (added to P[i])."""
+    volume, W, Sg, m, K, two_mu, bond_damage, P = args
+    th, pp = theta_p_bond(b, z, L - z, volume[j], W, Sg, two_mu, bond_damage)
+    P[i] += pp
+    return th
+
+
+def theta_finish(i, th, p, args):
+    """theta_i; P[i] = its bond sum + (K + (2 mu) m_i / 9) theta_i."""
+    m, K, two_mu, P = args[3], args[4], args[5], args[7]
+    P[i] = P[i] + (K + (two_mu * m[i]) / 9.0) * th
+    return th
+
+
+def force_state_point(i, args):
+    """(theta_i, p_i); args (W, Sg, theta, P, two_mu, d)."""
+    return args[2][i], args[3][i]
+
+
+def force_state_bond(i, j, b, ex, ey, ez, L, z, p, args):
+    """t_ij (M L^-5 T^-2)."""
+    W, Sg, theta, P, two_mu, bond_damage = args
+    theta_i, p_i = p
+    return force_state_value(b, z, L - z, W, Sg, theta_i, p_i, two_mu, bond_damage)
+
+
+def energy_point(i, args):
+    """theta_i; args (V, Sg, theta, K, mu, d)."""
+    return args[2][i]
+
+
+def stored_energy_term(i, j, b, ex, ey, ez, L, z, th, args):
+    """(1-d) ((sigma e_d) e_d) V_j, e_d = e - (r theta_i)/3."""
+    volume, Sg, theta, K, mu, bond_damage = args
+    ed = (L - z) - (z * th) / 3.0
+    term = ((Sg[b] * ed) * ed) * volume[j]
+    if bond_damage.shape[0] > 0:
+        term = (1.0 - float(bond_damage[b])) * term
+    return term
+
+
+def stored_energy_finish(i, acc, th, args):
+    """W_i = ((K/2) theta) theta + mu acc (energy per volume; no 1/2 on the deviatoric term, as in
+    Peridigm: the force above is its derivative)."""
+    K, mu = args[3], args[4]
+    return ((0.5 * K) * th) * th + mu * acc
+
+
+DILATATION_INFLUENCE = BondMap(dilatation_influence_bond)
+DEVIATORIC_INFLUENCE = BondMap(deviatoric_influence_bond)
+WEIGHTED_VOLUME = PointSum(weighted_volume_term)
+#: theta_i = sum_j (1-d) ((omega r) e) V_j (dimensionless; no 3/m factor: the multipliers
+#: normalise omega) into out, and the Pals pressure p_i = sum_j (1-d) (-((2 mu)(sigma r))/3) e V_j
+#: + (K + (2 mu) m_i / 9) theta_i (stress, M L^-1 T^-2) into args' P
+THETA_PRESSURE = PointSum(theta_term, point=theta_point, finish=theta_finish)
+FORCE_STATE = BondMap(force_state_bond, point=force_state_point)
+STORED_ENERGY = PointSum(stored_energy_term, point=energy_point, finish=stored_energy_finish)
+
+
+# ------------------------------------------------------------------------------------------------
+# one point's theta, p and force state, re-evaluated by the finite-difference tangent below
+# (the laws' arithmetic, through the same bond helpers)
+# ------------------------------------------------------------------------------------------------
+# not a loop law: per-point helper of the tangent's probes (one family, re-evaluated at each probe); the loop law is THETA_PRESSURE
+@njit(cache=True, inline="always", error_model="numpy")
 def point_theta_p(i, offsets, neighbors, zeta, y, volume, W, Sg, m_i, K, two_mu, bond_damage):
-    """(theta_i, p_i) of point i (see :func:`precompute_kernel`)."""
-    has_damage = bond_damage.shape[0] > 0
+    """(theta_i, p_i) of point i (see ``THETA_PRESSURE``)."""
     th = 0.0
     pp = 0.0
     yi0 = y[i, 0]
@@ -264,21 +360,16 @@ def point_theta_p(i, offsets, neighbors, zeta, y, volume, W, Sg, m_i, K, two_mu,
         ey = y[j, 1] - yi1
         ez = y[j, 2] - yi2
         e = math.sqrt((ex * ex + ey * ey) + ez * ez) - r
-        V = volume[j]
-        if has_damage:
-            keep = 1.0 - float(bond_damage[bnd])
-            th += keep * (((W[bnd] * r) * e) * V)
-            pp += keep * ((-((two_mu * (Sg[bnd] * r)) / 3.0) * e) * V)
-        else:
-            th += ((W[bnd] * r) * e) * V
-            pp += (-((two_mu * (Sg[bnd] * r)) / 3.0) * e) * V
+        dth, dpp = theta_p_bond(bnd, r, e, volume[j], W, Sg, two_mu, bond_damage)
+        th += dth
+        pp += dpp
     return th, pp + (K + (two_mu * m_i) / 9.0) * th
 
 
+# not a loop law: per-point helper of the tangent's probes (one family, re-evaluated at each probe); the loop law is FORCE_STATE
 @njit(cache=True, inline="always", error_model="numpy")
 def point_force_state(i, offsets, neighbors, zeta, y, W, Sg, theta_i, p_i, two_mu, bond_damage, t, t0):
-    """t[t0 + k] = force state of point i's k-th bond (see :func:`force_state_kernel`)."""
-    has_damage = bond_damage.shape[0] > 0
+    """t[t0 + k] = force state of point i's k-th bond (see ``FORCE_STATE``)."""
     o = offsets[i]
     yi0 = y[i, 0]
     yi1 = y[i, 1]
@@ -290,52 +381,7 @@ def point_force_state(i, offsets, neighbors, zeta, y, W, Sg, theta_i, p_i, two_m
         ey = y[j, 1] - yi1
         ez = y[j, 2] - yi2
         e = math.sqrt((ex * ex + ey * ey) + ez * ez) - r
-        ed = e - (theta_i * r) / 3.0
-        tb = (p_i * W[bnd]) * r + (two_mu * Sg[bnd]) * ed
-        if has_damage:
-            tb = (1.0 - float(bond_damage[bnd])) * tb
-        t[t0 + bnd - o] = tb
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
-def precompute_kernel(start, stop, offsets, neighbors, zeta, y, volume, W, Sg, m, K, mu, bond_damage, theta, p):
-    """theta_i = sum_j (1-d) ((omega r) e) V_j (dimensionless; no 3/m factor: the multipliers
-    normalise omega) and the Pals pressure p_i = sum_j (1-d) (-((2 mu)(sigma r))/3) e V_j
-    + (K + (2 mu) m_i / 9) theta_i (stress, M L^-1 T^-2) of the points [start, stop).
-    W, Sg (nb,): omega and sigma of every bond (:func:`bond_influence_kernel`)."""
-    for i in prange(start, stop):
-        theta[i], p[i] = point_theta_p(i, offsets, neighbors, zeta, y, volume, W, Sg, m[i], K, 2.0 * mu, bond_damage)
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
-def force_state_kernel(start, stop, offsets, neighbors, zeta, y, W, Sg, theta, p, mu, bond_damage, t):
-    """Scalar force state t[b] = (1-d) ((p_i omega) r + ((2 mu) sigma) e_d), e_d = e - (theta_i r)/3
-    (M L^-5 T^-2), of every bond of the points [start, stop)."""
-    for i in prange(start, stop):
-        point_force_state(i, offsets, neighbors, zeta, y, W, Sg, theta[i], p[i], 2.0 * mu, bond_damage, t, offsets[i])
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
-def stored_energy_kernel(start, stop, offsets, neighbors, zeta, y, volume, Sg, theta, K, mu, bond_damage, W):
-    """W_i = ((K/2) theta) theta + mu sum_j (1-d) ((sigma e_d) e_d) V_j (energy per volume; no 1/2
-    on the deviatoric term, as in Peridigm: the force above is its derivative)."""
-    has_damage = bond_damage.shape[0] > 0
-    for i in prange(start, stop):
-        th = theta[i]
-        acc = 0.0
-        for bnd in range(offsets[i], offsets[i + 1]):
-            j = neighbors[bnd]
-            r = zeta[bnd]
-            ex = y[j, 0] - y[i, 0]
-            ey = y[j, 1] - y[i, 1]
-            ez = y[j, 2] - y[i, 2]
-            e = math.sqrt((ex * ex + ey * ey) + ez * ez) - r
-            ed = e - (r * th) / 3.0
-            term = ((Sg[bnd] * ed) * ed) * volume[j]
-            if has_damage:
-                term = (1.0 - float(bond_damage[bnd])) * term
-            acc += term
-        W[i] = ((0.5 * K) * th) * th + mu * acc
+        t[t0 + bnd - o] = force_state_value(bnd, r, e, W, Sg, theta_i, p_i, two_mu, bond_damage)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -371,6 +417,7 @@ def _scatter(S, Kloc, row_of_local, nrows, indptr, indices, data):
     scatter_local_kernel(rows, sub, indptr, indices, data)
 
 
+# not a loop law: tangent assembly (central differences of one point's force over its family, scattered into the 3x3-block matrix)
 @njit(cache=True, error_model="numpy")
 def fd_tangent_kernel(pts, offsets, neighbors, zeta, y, volume, W, Sg, m, K, mu, bond_damage, eps,
                       row_of_local, nrows, indptr, indices, data, max_degree):
