@@ -258,16 +258,18 @@ def stored_energy_finish(i, acc, p, args):
     return 0.5 * K * th * th + (0.5 * (15.0 * mu) / m[i]) * acc if offsets[i + 1] > offsets[i] else 0.5 * K * th * th
 
 
-WEIGHTED_VOLUME = PointSum(weighted_volume_term)
-DILATATION = PointSum(dilatation_term, point=displacement_point, finish=dilatation_finish)
-DILATATION_PARTIAL = PointSum(dilatation_partial_term, point=displacement_point, finish=dilatation_finish)
-FORCE_STATE = BondMap(force_state_bond, point=displacement_point)  # out: T (nb, 3)
+# every law runs on the reference bonds and takes |xi| from the positions (no Bond_Length field)
+REF = {"z_from_positions": True}
+WEIGHTED_VOLUME = PointSum(weighted_volume_term, **REF)
+DILATATION = PointSum(dilatation_term, point=displacement_point, finish=dilatation_finish, **REF)
+DILATATION_PARTIAL = PointSum(dilatation_partial_term, point=displacement_point, finish=dilatation_finish, **REF)
+FORCE_STATE = BondMap(force_state_bond, point=displacement_point, **REF)  # out: T (nb, 3)
 #: omega = 1, no damage, no partial volumes: laws without the optional arrays
-DILATATION_PLAIN = PointSum(dilatation_plain_term, point=displacement_point, finish=dilatation_finish)
-FORCE_STATE_PLAIN = BondMap(force_state_plain_bond, point=plain_point)
-FUSED_FORCE = PointSum(fused_force_term, point=fused_force_point)  # out: f[:, 0], f (n, 3) in args
-STORED_ENERGY = PointSum(stored_energy_term, point=energy_point, finish=stored_energy_finish)
-STORED_ENERGY_PARTIAL = PointSum(stored_energy_partial_term, point=energy_point, finish=stored_energy_finish)
+DILATATION_PLAIN = PointSum(dilatation_plain_term, point=displacement_point, finish=dilatation_finish, **REF)
+FORCE_STATE_PLAIN = BondMap(force_state_plain_bond, point=plain_point, **REF)
+FUSED_FORCE = PointSum(fused_force_term, point=fused_force_point, **REF)  # out: f[:, 0], f (n, 3) in args
+STORED_ENERGY = PointSum(stored_energy_term, point=energy_point, finish=stored_energy_finish, **REF)
+STORED_ENERGY_PARTIAL = PointSum(stored_energy_partial_term, point=energy_point, finish=stored_energy_finish, **REF)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -325,9 +327,11 @@ class LinearLPSPartialVolume(Material):
                 self.K, self.mu, kind, delta, table, self._damage(block), block.bonds.offsets)
 
     def _run(self, block: BlockView, law, args: tuple, out: np.ndarray) -> None:
-        """``law`` over the block's points on the reference bonds (the kernel's y is x)."""
+        """``law`` over the block's points on the reference bonds (the kernel's y is x, and so are
+        the positions its |xi| comes from)."""
         s, nl = block.fields, block.bonds
-        compiled(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Model_Coordinates"], args, out)
+        x = s["Model_Coordinates"]
+        compiled(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, x, x, args, out)
 
     def initialize(self, block: BlockView) -> None:
         s, nl = block.fields, block.bonds

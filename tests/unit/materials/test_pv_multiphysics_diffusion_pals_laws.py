@@ -70,19 +70,22 @@ def deformed(sim, seed: int, scale: float, damage: bool):
 
 
 def simulation(model: str, backend: str, tmp_path: Path):
-    if model == "partial volume":
+    if model.startswith("partial volume"):
+        damage = model == "partial volume"
         tmp_path.mkdir(parents=True, exist_ok=True)
         write_hex_mesh(tmp_path / "m.g", 4)
         tree = {
             "Discretization": {"Type": "Exodus", "Input Mesh File": "m.g", "Compute Element-Horizon Intersections": True,
                                "Influence Function": "Parabolic Decay"},
             "Materials": {"M": {**LLPS, "Use Partial Volume": True}},
-            "Blocks": {"B": {"Block Names": "block_1", "Material": "M", "Horizon": 1.6, "Damage Model": "D"}},
-            "Damage Models": {"D": DAMAGE},
+            "Blocks": {"B": {"Block Names": "block_1", "Material": "M", "Horizon": 1.6}},
         }
+        if damage:
+            tree["Blocks"]["B"]["Damage Model"] = "D"
+            tree["Damage Models"] = {"D": DAMAGE}
         sim = build_simulation(tree, directory=tmp_path, output_dir=tmp_path, backend=backend)
-        assert sim.blocks[0].fused and not sim.blocks[0].view.damage_symmetric
-        return deformed(sim, 1, 1e-3, True)
+        assert sim.blocks[0].fused and sim.blocks[0].view.damage_symmetric != damage
+        return deformed(sim, 1, 1e-3, damage)
     if model == "linear lps plain":
         return deformed(build_simulation(cube_deck(LLPS, n=4, spacing=1e-3), backend=backend), 2, 1e-6, False)
     if model == "multiphysics plain":
@@ -169,6 +172,17 @@ def test_plain_laws_are_the_general_laws_with_omega_one_and_no_damage():
     np.testing.assert_array_equal(out[0][0], out[1][0])
     np.testing.assert_array_equal(out[0][1], out[1][1])
     assert np.abs(out[0][1]).max() > 0
+
+
+def test_linear_lps_never_reads_bond_lengths(tmp_path):
+    """Linear LPS works on reference bonds with |xi| from the positions: the lazy Bond_Length
+    field is never allocated (forces, partial volumes, energy)."""
+    for model in ("linear lps plain", "partial volume without damage"):
+        sim = simulation(model, "numba", tmp_path / model.replace(" ", "_"))
+        sim.evaluate_forces()
+        W = np.zeros(sim.num_local)
+        sim.blocks[0].material.stored_energy_density(sim.blocks[0].view, W)
+        assert not sim.fields.allocated("Bond_Length"), model
 
 
 def test_pals_tangent_helpers_repeat_the_laws():
