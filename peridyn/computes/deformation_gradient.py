@@ -81,7 +81,7 @@ def deformation_gradient_finish(i, acc, p, args):
     return det
 
 
-DEFORMATION_GRADIENT = PointSum(shape_tensors_term, point=shape_tensors_point, finish=deformation_gradient_finish)
+DEFORMATION_GRADIENT = PointSum(shape_tensors_term, point=shape_tensors_point, finish=deformation_gradient_finish, allocates=True)
 
 
 class DeformationGradient(Compute):

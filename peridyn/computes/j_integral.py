@@ -101,7 +101,7 @@ def gradient_finish(i, acc, p, args):
     return tr
 
 
-DISPLACEMENT_GRADIENT = PointSum(gradient_term, point=gradient_point, finish=gradient_finish, gate=gradient_gate)
+DISPLACEMENT_GRADIENT = PointSum(gradient_term, point=gradient_point, finish=gradient_finish, gate=gradient_gate, allocates=True)
 
 
 def displacement_gradient(points, offsets, neighbors, zeta, x, y, volume, bond_damage, backend=None):

@@ -3,7 +3,8 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 
 
 @njit(cache=True, inline="always")
@@ -20,3 +21,32 @@ def stretch_exceeds(L2: float, L0: float, s_c: float) -> bool:
             return True
     L = math.sqrt(L2)
     return (L - L0) / L0 > s_c
+
+
+def damage_sum(d, lo, hi):
+    """sum_b d[b] for b in [lo, hi), in bond order (float). Integer bond damage (whole or broken
+    bonds, uint8) is counted in an integer, which numba vectorizes; the same value, exactly."""
+    total = 0.0
+    for b in range(lo, hi):
+        total += d[b]
+    return total
+
+
+@overload(damage_sum, jit_options={"cache": True})
+def _damage_sum(d, lo, hi):
+    if isinstance(d.dtype, types.Integer):
+        def count(d, lo, hi):
+            n = 0
+            for b in range(lo, hi):
+                n += d[b]
+            return float(n)
+
+        return count
+
+    def add(d, lo, hi):
+        total = 0.0
+        for b in range(lo, hi):
+            total += d[b]
+        return total
+
+    return add

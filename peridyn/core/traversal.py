@@ -18,7 +18,10 @@ for ``i`` (0.0 without one), and ``args`` the tuple of arrays and numbers the mo
 call (its parameters, fields, outputs written at ``[b]`` or ``[i]``). Functions must be plain
 numeric code that numba compiles in nopython mode (``math``, arithmetic, indexing ``args``) and
 may call ``@njit`` helpers; they are compiled inline into each kernel, so the arithmetic and its
-order are exactly what is written.
+order are exactly what is written. They must not allocate arrays (``np.zeros``, array
+expressions): they are compiled without numba's reference counting, which otherwise costs an
+atomic increment and decrement of every array they unpack from ``args`` at every bond (measured
+2-4x on the elastic and damage loops). A law whose functions allocate says ``allocates=True``.
 
 Kernel signature for every law: ``kernel(start, stop, offsets, neighbors, zeta, y, args, out)``
 with ``offsets`` (n+1,) and ``neighbors`` (nb,) int32 the CSR bonds, ``zeta`` (nb,) reference bond
@@ -51,6 +54,7 @@ class PointSum:
     gate: Callable | None = None
     width: int = 1
     z_from_positions: bool = False
+    allocates: bool = False
 
 
 @dataclass(frozen=True)
@@ -62,6 +66,7 @@ class BondMap:
     point: Callable | None = None
     width: int = 1
     z_from_positions: bool = False
+    allocates: bool = False
 
 
 @dataclass(frozen=True)
@@ -76,6 +81,7 @@ class PairForce:
     point: Callable | None = None
     gate: Callable | None = None
     z_from_positions: bool = False
+    allocates: bool = False
 
 
 Law = PointSum | BondMap | PairForce

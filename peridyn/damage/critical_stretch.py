@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from pydantic import Field, field_validator
 
-from ..core.bondmath import stretch_exceeds
+from ..core.bondmath import damage_sum, stretch_exceeds
 from ..core.fields import FieldSpec, Relation
 from ..core.interfaces import BlockView, DamageModel
 from ..core.params import ModelParams
@@ -58,10 +58,7 @@ def point_damage(i, acc, p, args):
     d_np1, offsets = args[2], args[7]
     lo = offsets[i]
     hi = offsets[i + 1]
-    broken = 0.0
-    for b in range(lo, hi):
-        broken += d_np1[b]
-    return broken / (hi - lo) if hi > lo else 0.0
+    return damage_sum(d_np1, lo, hi) / (hi - lo) if hi > lo else 0.0
 
 CRITICAL_STRETCH = PointSum(stretch_damage_term, gate=broken_gate, finish=point_damage)
 

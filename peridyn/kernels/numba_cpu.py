@@ -35,7 +35,7 @@ class NumbaBackend(Backend):
         loop = "for i in prange(start, stop):" if self.parallel else "for i in range(start, stop):"
         return HEADER.format(
             backend=self.name,
-            imports=codegen.imports(law, 'njit(error_model="numpy")'),
+            imports=codegen.imports(law, 'njit(error_model="numpy")' if law.allocates else 'njit(error_model="numpy", _nrt=False)'),
             parallel=self.parallel,
             body=codegen.point_loop(law, loop),
         )

@@ -22,7 +22,7 @@ import numpy as np
 from numba import njit, prange
 from pydantic import Field
 
-from ..core.bondmath import stretch_exceeds
+from ..core.bondmath import damage_sum, stretch_exceeds
 from ..core.fields import FieldSpec, Relation, Temporal
 from ..core.influence import omega
 from ..core.interfaces import BlockView, ElasticModuli, Material
@@ -127,10 +127,7 @@ def stretch_damage_finish(i, acc, p, args):
     m, d_np1, damage, offsets = args[1], args[7], args[9], args[10]
     lo = offsets[i]
     hi = offsets[i + 1]
-    broken = 0.0
-    for b in range(lo, hi):
-        broken += d_np1[b]
-    damage[i] = broken / (hi - lo) if hi > lo else 0.0
+    damage[i] = damage_sum(d_np1, lo, hi) / (hi - lo) if hi > lo else 0.0
     return acc / m[i] if m[i] != 0.0 else 0.0
 
 
@@ -235,9 +232,11 @@ def stored_energy_finish(i, acc, th, args):
 WEIGHTED_VOLUME = PointSum(weighted_volume_term)
 WEIGHTED_VOLUME_FROM_X = PointSum(weighted_volume_term, z_from_positions=True)  # zeta: x (no Bond_Length)
 DILATATION = PointSum(dilatation_term, point=thermal_shift, finish=dilatation_finish)
-# the packed-record laws take |xi| from the records' reference positions (columns 6-8)
+# The packed-record laws take |xi| from the records' reference positions (columns 6-8): no
+# Bond_Length to hold or stream. Not so with damage, where the stretch test needs no square root
+# for most bonds and reading |xi| beats computing it (Bond_Length is read by the damage model anyway).
 DILATATION_PLAIN = PointSum(dilatation_plain_term, finish=dilatation_finish, z_from_positions=True)
-DILATATION_STRETCH_DAMAGE = PointSum(stretch_damage_term, gate=stretch_damage_gate, finish=stretch_damage_finish, z_from_positions=True)
+DILATATION_STRETCH_DAMAGE = PointSum(stretch_damage_term, gate=stretch_damage_gate, finish=stretch_damage_finish)
 FORCE_STATE = BondMap(force_state_bond, point=coefficients_point)
 PAIR_FORCE = PairForce(pair_force, point=coefficients_point)
 PAIR_FORCE_PLAIN = PairForce(pair_force_plain, point=packed_point, z_from_positions=True)
@@ -366,7 +365,7 @@ class Elastic(Material):
         _, s_c, copy_previous = self._damage_model.bond_rule()
         P = self._packed(block, False)
         args = (P, s["Weighted_Volume"], kind, delta, table, s_c, s.n("Bond_Damage"), s["Bond_Damage"], copy_previous, s["Damage"], nl.offsets)
-        compiled(block, DILATATION_STRETCH_DAMAGE)(block.start, block.stop, nl.offsets, nl.neighbors, P[:, X_COLUMNS], P, args, s["Dilatation"])
+        compiled(block, DILATATION_STRETCH_DAMAGE)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], P, args, s["Dilatation"])
 
     def precompute(self, block: BlockView) -> None:
         s, nl = block.fields, block.bonds
