@@ -17,6 +17,7 @@ e_d = e - theta_i zeta / 3.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 from numba import njit, prange
@@ -232,15 +233,20 @@ def stored_energy_finish(i, acc, th, args):
 WEIGHTED_VOLUME = PointSum(weighted_volume_term)
 WEIGHTED_VOLUME_FROM_X = PointSum(weighted_volume_term, z_from_positions=True)  # zeta: x (no Bond_Length)
 DILATATION = PointSum(dilatation_term, point=thermal_shift, finish=dilatation_finish)
-# The packed-record laws take |xi| from the records' reference positions (columns 6-8): no
-# Bond_Length to hold or stream. Not so with damage, where the stretch test needs no square root
-# for most bonds and reading |xi| beats computing it (Bond_Length is read by the damage model anyway).
-DILATATION_PLAIN = PointSum(dilatation_plain_term, finish=dilatation_finish, z_from_positions=True)
+DILATATION_PLAIN = PointSum(dilatation_plain_term, finish=dilatation_finish)
 DILATATION_STRETCH_DAMAGE = PointSum(stretch_damage_term, gate=stretch_damage_gate, finish=stretch_damage_finish)
 FORCE_STATE = BondMap(force_state_bond, point=coefficients_point)
 PAIR_FORCE = PairForce(pair_force, point=coefficients_point)
-PAIR_FORCE_PLAIN = PairForce(pair_force_plain, point=packed_point, z_from_positions=True)
-PAIR_FORCE_DAMAGE_PLAIN = PairForce(pair_force_damage_plain, point=packed_point, gate=intact_gate, z_from_positions=True)
+PAIR_FORCE_PLAIN = PairForce(pair_force_plain, point=packed_point)
+PAIR_FORCE_DAMAGE_PLAIN = PairForce(pair_force_damage_plain, point=packed_point, gate=intact_gate)
+# The same laws taking |xi| from the records' reference positions (columns 6-8): a square root
+# more per bond, no Bond_Length to hold (8 bytes a bond) or stream. Measured on one core: 45 %
+# slower at 1.1 M bonds (the lengths stream from cache), even at 2.9 M, 0-8 % faster at 7.15 M
+# (cube40: peak memory 312 -> 259 MiB); chosen from POSITIONS_MIN_BONDS local bonds up. Not with
+# damage: there the stretch test needs no square root for most bonds and the damage model
+# reads Bond_Length anyway.
+POSITIONS_MIN_BONDS = 2_500_000
+LENGTHS_FROM_X = {law: replace(law, z_from_positions=True) for law in (DILATATION_PLAIN, PAIR_FORCE_PLAIN, PAIR_FORCE_DAMAGE_PLAIN)}
 STORED_ENERGY = PointSum(stored_energy_term, point=energy_point, finish=stored_energy_finish, z_from_positions=True)  # zeta: x
 
 
@@ -374,10 +380,18 @@ class Elastic(Material):
         damage = self._damage(block)
         if kind == 0 and not damage.shape[0] and not dT.shape[0] and block.stop - block.start >= PACK_MIN_ROWS:
             P = self._packed(block, False)
-            compiled(block, DILATATION_PLAIN)(block.start, block.stop, nl.offsets, nl.neighbors, P[:, X_COLUMNS], P, (P, s["Weighted_Volume"]), s["Dilatation"])
+            law, zeta = self._lengths(block, DILATATION_PLAIN, P)
+            compiled(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, zeta, P, (P, s["Weighted_Volume"]), s["Dilatation"])
             return
         args = (s["Volume"], s["Weighted_Volume"], kind, delta, table, damage, dT, aT)
         compiled(block, DILATATION)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, s["Dilatation"])
+
+    def _lengths(self, block: BlockView, law, P: np.ndarray):
+        """The packed-record law and its ``zeta``: Bond_Length, or from POSITIONS_MIN_BONDS
+        local bonds up (and while no other code has made Bond_Length) the records' x."""
+        if block.bonds.num_bonds >= POSITIONS_MIN_BONDS and not block.fields.allocated("Bond_Length"):
+            return LENGTHS_FROM_X[law], P[:, X_COLUMNS]
+        return law, block.fields["Bond_Length"]
 
     def _reach(self, block: BlockView) -> tuple[int, int, int, int]:
         """The rows the bonds of ``block`` reach, with its own: [lo1, hi1) owned, [lo2, hi2) ghosts."""
@@ -433,12 +447,14 @@ class Elastic(Material):
         damage = self._damage(block)
         if kind == 0 and not damage.shape[0] and not dT.shape[0]:
             P = self._packed(block, True)
-            compiled(block, PAIR_FORCE_PLAIN)(block.start, block.stop, nl.offsets, nl.neighbors, P[:, X_COLUMNS], P, (P,), force_density)
+            law, zeta = self._lengths(block, PAIR_FORCE_PLAIN, P)
+            compiled(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, zeta, P, (P,), force_density)
             return True
         reverse = nl.reverse() if damage.shape[0] and not block.damage_symmetric else EMPTY_INDEX
         if kind == 0 and damage.shape[0] and not dT.shape[0] and not reverse.shape[0]:
             P = self._packed(block, True)
-            compiled(block, PAIR_FORCE_DAMAGE_PLAIN)(block.start, block.stop, nl.offsets, nl.neighbors, P[:, X_COLUMNS], P, (P, damage), force_density)
+            law, zeta = self._lengths(block, PAIR_FORCE_DAMAGE_PLAIN, P)
+            compiled(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, zeta, P, (P, damage), force_density)
             return True
         a, c = self._coefficients(block, reach=True)
         args = (a, c, s["Volume"], kind, delta, table, damage, reverse, dT, aT)

@@ -28,12 +28,17 @@ ELASTIC = {"Material Model": "Elastic", "Density": 1.0, "Bulk Modulus": 1.0, "Sh
 
 
 @pytest.mark.parametrize("damage", [None, {"Damage Model": "Critical Stretch", "Critical Stretch": 0.01}])
-def test_plain_lps_runs_never_hold_bond_lengths(damage):
+def test_plain_lps_runs_never_hold_bond_lengths(damage, monkeypatch):
+    """Above POSITIONS_MIN_BONDS bonds (here: from 0 up) the packed LPS kernels take |xi| from
+    the reference positions; without damage nothing else reads Bond_Length."""
+    from peridyn.materials import elastic
+
+    monkeypatch.setattr(elastic, "POSITIONS_MIN_BONDS", 0)
     sim = build_simulation(cube_deck(ELASTIC, n=6, damage=damage))
     sim.fields["Coordinates"][:] *= 1.005  # below the critical stretch: intact bonds, pulling
     f = sim.evaluate_forces().copy()
     sim.stored_energy()
-    assert not sim.fields.allocated("Bond_Length")
+    assert sim.fields.allocated("Bond_Length") == (damage is not None)
     x = sim.fields["Model_Coordinates"]
     zeta = sim.fields["Bond_Length"]  # read on demand: the same lengths the loops computed
     nl = sim.bonds
@@ -46,3 +51,17 @@ def test_models_that_read_bond_lengths_get_them():
     sim = build_simulation(cube_deck({**ELASTIC, "Thermal Expansion Coefficient": 1e-5}, n=5))
     sim.evaluate_forces()
     assert sim.fields.allocated("Bond_Length")
+
+
+@pytest.mark.parametrize("damage", [None, {"Damage Model": "Critical Stretch", "Critical Stretch": 0.01}])
+def test_lengths_from_positions_or_from_the_field_give_the_same_bits(damage, monkeypatch):
+    from peridyn.materials import elastic
+
+    out = []
+    for threshold in (0, 10**12):
+        monkeypatch.setattr(elastic, "POSITIONS_MIN_BONDS", threshold)
+        sim = build_simulation(cube_deck(ELASTIC, n=6, damage=damage))
+        sim.fields["Coordinates"][:] += 0.003 * np.random.default_rng(1).standard_normal(sim.fields["Coordinates"].shape)
+        out.append((sim.evaluate_forces().copy(), sim.fields["Dilatation"].copy()))
+    np.testing.assert_array_equal(out[0][0], out[1][0])
+    np.testing.assert_array_equal(out[0][1], out[1][1])
