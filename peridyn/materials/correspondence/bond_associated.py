@@ -18,7 +18,8 @@ The node-level quantities (Left_Stretch_Tensor, Rotation_Tensor, Unrotated_Rate_
 Unrotated_Cauchy_Stress, Cauchy_Stress, Von_Mises_Stress, Equivalent_Plastic_Strain,
 Stress_Triaxiality, Green_Lagrange_Strain) come from the node F and Ḟ with the same routines and
 are outputs only: the force uses the bond quantities. The kernels are in
-:mod:`.bond_associated_kernels`.
+:mod:`.bond_associated_kernels` (loop laws run by the block's backend; the finite-difference
+tangent, :mod:`.fd_tangent_rate`, stays hand-written).
 """
 from __future__ import annotations
 
@@ -263,7 +264,7 @@ class BondAssociatedCorrespondence(Material):
         kind, table = self._omega(block)
         kern.initialize_kernel(lo, hi, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Volume"], s["Horizon"], kind, table,
                                s.get("Bond_Damage", EMPTY), s["Influence_State"], s["Gradient_Weight"],
-                               s["Weighted_Volume"])
+                               s["Weighted_Volume"], backend=block.backend)
 
     def precompute(self, block: BlockView) -> None:
         s, nl = block.fields, block.bonds
@@ -273,6 +274,7 @@ class BondAssociatedCorrespondence(Material):
             block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Volume"], s["Horizon"], kind, table,
             s.n("Damage") if damaged else EMPTY, s["Damage"] if damaged else EMPTY, s["Bond_Damage"] if damaged else EMPTY,
             s["Influence_State"], s["Gradient_Weight"], s["Displacement"], s["Velocity"], *(s[name] for name in F_ROWS + FDOT_ROWS),
+            backend=block.backend,
         )
 
     def force_state(self, block: BlockView, T: np.ndarray) -> None:
@@ -294,6 +296,7 @@ class BondAssociatedCorrespondence(Material):
             s.n("Bond_Unrotated_Cauchy_Stress"), s.np1("Bond_Unrotated_Cauchy_Stress"),
             s.n("Bond_Equivalent_Plastic_Strain") if plastic else EMPTY, s.np1("Bond_Equivalent_Plastic_Strain") if plastic else EMPTY,
             model, float(self.K), float(self.G), p0, p1, p2, p3, float(block.time_step), self._scratch("Piola", (nl.num_bonds, 9)), T,
+            backend=block.backend, S=self._scratch("Stress_Integral", (s.num_points, 9)),
         )
         if bad >= 0:
             self._fail(block, int(bad), int(code))

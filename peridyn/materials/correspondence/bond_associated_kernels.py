@@ -1,6 +1,19 @@
 """Numerical core of Peridigm's bond-associated correspondence family
-(PERIDIGM_CORRESPONDENCE.md §5.2, §5.3, §5.7, §8.2, §9), one point per ``prange`` iteration,
-gather only (a point writes its own rows and its own bonds, never a neighbour's).
+(PERIDIGM_CORRESPONDENCE.md §5.2, §5.3, §5.7, §8.2, §9), gather only (a point writes its own rows
+and its own bonds, never a neighbour's).
+
+Loops: the bond loops are loop laws (:mod:`peridyn.core.traversal`) run on the reference
+positions by the block's backend: ``WEIGHTS_MOMENT`` and ``WEIGHTS_PHI`` (§8.2, a gated
+:class:`PointSum` whose finish takes the pseudo-inverse, then a :class:`BondMap` of φ),
+``WEIGHTED_VOLUME`` (§9.1), ``GRADIENTS`` (§9.2, F and Ḟ as one sum of 18 components),
+``BOND_STRESS`` (a :class:`PointSum` of the stress integral whose terms update each bond's state)
+and ``BOND_FORCE`` (a :class:`BondMap` of width 3); the node level (:func:`node_kernel`) has no
+bond loop. The drivers :func:`initialize_kernel`, :func:`precompute_kernel` and
+:func:`force_kernel` run them. The per-point helpers with their own bond loops
+(:func:`gradient_weights_point`, :func:`deformation_gradient_point`, :func:`bond_point`) serve the
+tangent's probes (:mod:`.fd_tangent_rate`), which run one family inside a parallel iteration; they
+do the laws' arithmetic through the same bond helpers (``weights_bond``, ``phi_bond``,
+``gradient_terms``, ``bond_stress``, ``bond_force``), inlined into both.
 
 Shapes and units of the kernel arguments:
 
@@ -30,6 +43,8 @@ import numpy as np
 from numba import njit, prange
 
 from ...core.influence import omega
+from ...core.traversal import BondMap, PointSum
+from ...kernels import default_backend
 from .stress import (
     SQRT_6,
     _deviator,
@@ -57,6 +72,7 @@ ELASTIC, PERFECT, POWER_LAW, SATURATION = 0, 1, 2, 3
 MAX_NEWTON = 100  #: more iterations in the radial return: Peridigm aborts the run
 #: status codes of :func:`force_kernel`
 SINGULAR_NODE_F, SINGULAR_BOND_F, NO_CONVERGENCE = 1, 2, 3
+EMPTY = np.zeros(0)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -82,58 +98,124 @@ def pseudo_inverse(M, tau):
     return out
 
 
+# The gradient weights' and the deformation gradient's bond physics, shared by the loop laws and
+# the per-point helpers of the tangent's probes (arrays as arguments: a law's function unpacks its
+# args and calls them; inlined).
+@njit(cache=True, inline="always", error_model="numpy")
+def weights_bond(i, j, b, X0, X1, X2, zeta, volume, horizon, omega_kind, omega_table, bond_damage, influence):
+    """ω_ij = ω(ζ, δ_i)(1.0 - d_ij) (``w * 1.0`` without damage) of bond b = i→j with ξ = (X0, X1,
+    X2), ζ = |ξ|, written to influence[b]; returns the bond's terms of the moment matrix,
+    M_rc = ((ω V_j) Q_r) Q_c with Q = ξ/δ_i: 9 numbers, row-major."""
+    delta = horizon[i]
+    Q0 = X0 / delta
+    Q1 = X1 / delta
+    Q2 = X2 / delta
+    w = omega(omega_kind, zeta, delta, omega_table, b)
+    w = w * (1.0 - bond_damage[b]) if bond_damage.shape[0] > 0 else w * 1.0
+    influence[b] = w
+    t = w * volume[j]
+    return (
+        (t * Q0) * Q0, (t * Q0) * Q1, (t * Q0) * Q2,
+        (t * Q1) * Q0, (t * Q1) * Q1, (t * Q1) * Q2,
+        (t * Q2) * Q0, (t * Q2) * Q1, (t * Q2) * Q2,
+    )
+
+
+@njit(cache=True, error_model="numpy")
+def weights_inverse(i, acc, horizon):
+    """M⁺ of point i's moment matrix (``acc``, 9 numbers row-major) with τ = ((1.0e-6 δ) δ) δ, as 9
+    numbers row-major."""
+    M = np.empty((3, 3))
+    for r in range(3):
+        for c in range(3):
+            M[r, c] = acc[3 * r + c]
+    delta = horizon[i]
+    Mi = pseudo_inverse(M, ((1.0e-6 * delta) * delta) * delta)
+    return (Mi[0, 0], Mi[0, 1], Mi[0, 2], Mi[1, 0], Mi[1, 1], Mi[1, 2], Mi[2, 0], Mi[2, 1], Mi[2, 2])
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def phi_bond(i, b, X0, X1, X2, Mi, horizon, influence):
+    """φ_ij (3 numbers, L^-3): φ_r = Σ_c (((1.0 ω_ij) M⁺_rc) Q_c)/δ from 0.0, Q = ξ/δ, M⁺ = ``Mi``
+    (9 numbers, row-major)."""
+    delta = horizon[i]
+    Q0 = X0 / delta
+    Q1 = X1 / delta
+    Q2 = X2 / delta
+    t = 1.0 * influence[b]
+    return (
+        (((0.0 + ((t * Mi[0]) * Q0) / delta) + ((t * Mi[1]) * Q1) / delta) + ((t * Mi[2]) * Q2) / delta),
+        (((0.0 + ((t * Mi[3]) * Q0) / delta) + ((t * Mi[4]) * Q1) / delta) + ((t * Mi[5]) * Q2) / delta),
+        (((0.0 + ((t * Mi[6]) * Q0) / delta) + ((t * Mi[7]) * Q1) / delta) + ((t * Mi[8]) * Q2) / delta),
+    )
+
+
+# not a loop law: probe helper of fd_tangent_rate (one family inside a parallel iteration); the laws are WEIGHTS_MOMENT and WEIGHTS_PHI
 @njit(cache=True, error_model="numpy")
 def gradient_weights_point(i, offsets, neighbors, x, volume, horizon, omega_kind, omega_table, bond_damage, influence, phi):
     """§8.2 with b = ξ (order 1, Q = ξ/δ) for point i: writes ω_ij = ω(|ξ|, δ_i)(1.0 - d_ij) into
     ``influence`` and φ_ij into ``phi`` for i's bonds. ``bond_damage`` (nb,) NP1, empty for none.
-    M_rc += ((ω V_j) Q_r) Q_c; τ = ((1.0e-6 δ) δ) δ; φ_r = Σ_c (((1.0 ω) M⁺_rc) Q_c)/δ."""
-    delta = horizon[i]
-    damaged = bond_damage.shape[0] > 0
-    M = np.zeros((3, 3))
+    M_rc += ((ω V_j) Q_r) Q_c; τ = ((1.0e-6 δ) δ) δ; φ_r = Σ_c (((1.0 ω) M⁺_rc) Q_c)/δ. The
+    arithmetic of ``WEIGHTS_MOMENT`` and ``WEIGHTS_PHI`` (the same helpers)."""
+    M0 = M1 = M2 = M3 = M4 = M5 = M6 = M7 = M8 = 0.0
     for b in range(offsets[i], offsets[i + 1]):
         j = neighbors[b]
         X0 = x[j, 0] - x[i, 0]
         X1 = x[j, 1] - x[i, 1]
         X2 = x[j, 2] - x[i, 2]
-        Q0 = X0 / delta
-        Q1 = X1 / delta
-        Q2 = X2 / delta
-        w = omega(omega_kind, math.sqrt(X0 * X0 + X1 * X1 + X2 * X2), delta, omega_table, b)
-        w = w * (1.0 - bond_damage[b]) if damaged else w * 1.0
-        influence[b] = w
-        t = w * volume[j]
-        M[0, 0] += (t * Q0) * Q0
-        M[0, 1] += (t * Q0) * Q1
-        M[0, 2] += (t * Q0) * Q2
-        M[1, 0] += (t * Q1) * Q0
-        M[1, 1] += (t * Q1) * Q1
-        M[1, 2] += (t * Q1) * Q2
-        M[2, 0] += (t * Q2) * Q0
-        M[2, 1] += (t * Q2) * Q1
-        M[2, 2] += (t * Q2) * Q2
-    Mi = pseudo_inverse(M, ((1.0e-6 * delta) * delta) * delta)
+        t = weights_bond(i, j, b, X0, X1, X2, math.sqrt(X0 * X0 + X1 * X1 + X2 * X2), volume, horizon, omega_kind, omega_table,
+                         bond_damage, influence)
+        M0 += t[0]
+        M1 += t[1]
+        M2 += t[2]
+        M3 += t[3]
+        M4 += t[4]
+        M5 += t[5]
+        M6 += t[6]
+        M7 += t[7]
+        M8 += t[8]
+    Mi = weights_inverse(i, (M0, M1, M2, M3, M4, M5, M6, M7, M8), horizon)
     for b in range(offsets[i], offsets[i + 1]):
         j = neighbors[b]
-        Q0 = (x[j, 0] - x[i, 0]) / delta
-        Q1 = (x[j, 1] - x[i, 1]) / delta
-        Q2 = (x[j, 2] - x[i, 2]) / delta
-        t = 1.0 * influence[b]
-        for r in range(3):
-            phi[b, r] = (((0.0 + ((t * Mi[r, 0]) * Q0) / delta) + ((t * Mi[r, 1]) * Q1) / delta) + ((t * Mi[r, 2]) * Q2) / delta)
+        phi[b, 0], phi[b, 1], phi[b, 2] = phi_bond(i, b, x[j, 0] - x[i, 0], x[j, 1] - x[i, 1], x[j, 2] - x[i, 2], Mi, horizon, influence)
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def initialize_kernel(start, stop, offsets, neighbors, x, volume, horizon, omega_kind, omega_table, bond_damage, influence, phi, m):
-    """§9.1 steps 1-3 for the points [start, stop): ω_ij and φ_ij (§8.2), then the weighted volume
-    m_i = Σ_j ω_ij V_j (sequential from 0.0), which the family never updates."""
-    for i in prange(start, stop):
-        gradient_weights_point(i, offsets, neighbors, x, volume, horizon, omega_kind, omega_table, bond_damage, influence, phi)
-        acc = 0.0
-        for b in range(offsets[i], offsets[i + 1]):
-            acc += influence[b] * volume[neighbors[b]]
-        m[i] = acc
+@njit(cache=True, inline="always", error_model="numpy")
+def gradient_terms(i, j, b, volume, phi, u, v):
+    """Bond i→j's terms of F and Ḟ, (Δu_a φ_c) V_j and (Δv_a φ_c) V_j: 18 numbers (F, then Ḟ,
+    row-major)."""
+    Vj = volume[j]
+    h0 = phi[b, 0]
+    h1 = phi[b, 1]
+    h2 = phi[b, 2]
+    u0 = u[j, 0] - u[i, 0]
+    u1 = u[j, 1] - u[i, 1]
+    u2 = u[j, 2] - u[i, 2]
+    v0 = v[j, 0] - v[i, 0]
+    v1 = v[j, 1] - v[i, 1]
+    v2 = v[j, 2] - v[i, 2]
+    return (
+        (u0 * h0) * Vj, (u0 * h1) * Vj, (u0 * h2) * Vj,
+        (u1 * h0) * Vj, (u1 * h1) * Vj, (u1 * h2) * Vj,
+        (u2 * h0) * Vj, (u2 * h1) * Vj, (u2 * h2) * Vj,
+        (v0 * h0) * Vj, (v0 * h1) * Vj, (v0 * h2) * Vj,
+        (v1 * h0) * Vj, (v1 * h1) * Vj, (v1 * h2) * Vj,
+        (v2 * h0) * Vj, (v2 * h1) * Vj, (v2 * h2) * Vj,
+    )
 
 
+@njit(cache=True, inline="always", error_model="numpy")
+def store_gradients(i, t, FX, FY, FZ, FdX, FdY, FdZ):
+    """F and Ḟ (18 numbers) of point i into the rows FX[i] ... FdZ[i]."""
+    FX[i, 0], FX[i, 1], FX[i, 2] = t[0], t[1], t[2]
+    FY[i, 0], FY[i, 1], FY[i, 2] = t[3], t[4], t[5]
+    FZ[i, 0], FZ[i, 1], FZ[i, 2] = t[6], t[7], t[8]
+    FdX[i, 0], FdX[i, 1], FdX[i, 2] = t[9], t[10], t[11]
+    FdY[i, 0], FdY[i, 1], FdY[i, 2] = t[12], t[13], t[14]
+    FdZ[i, 0], FdZ[i, 1], FdZ[i, 2] = t[15], t[16], t[17]
+
+
+# not a loop law: probe helper of fd_tangent_rate (one family inside a parallel iteration); the law is GRADIENTS
 @njit(cache=True, error_model="numpy")
 def deformation_gradient_point(i, offsets, neighbors, volume, phi, u, v, FX, FY, FZ, FdX, FdY, FdZ):
     """§9.2 step 2: F = I + Σ_j (Δu ⊗ φ) V_j and Ḟ = Σ_j (Δv ⊗ φ) V_j, entry by entry
@@ -142,53 +224,172 @@ def deformation_gradient_point(i, offsets, neighbors, volume, phi, u, v, FX, FY,
     F1 = F2 = F3 = F5 = F6 = F7 = 0.0
     D0 = D1 = D2 = D3 = D4 = D5 = D6 = D7 = D8 = 0.0
     for b in range(offsets[i], offsets[i + 1]):
-        j = neighbors[b]
-        Vj = volume[j]
-        h0 = phi[b, 0]
-        h1 = phi[b, 1]
-        h2 = phi[b, 2]
-        u0 = u[j, 0] - u[i, 0]
-        u1 = u[j, 1] - u[i, 1]
-        u2 = u[j, 2] - u[i, 2]
-        v0 = v[j, 0] - v[i, 0]
-        v1 = v[j, 1] - v[i, 1]
-        v2 = v[j, 2] - v[i, 2]
-        F0 += (u0 * h0) * Vj
-        F1 += (u0 * h1) * Vj
-        F2 += (u0 * h2) * Vj
-        F3 += (u1 * h0) * Vj
-        F4 += (u1 * h1) * Vj
-        F5 += (u1 * h2) * Vj
-        F6 += (u2 * h0) * Vj
-        F7 += (u2 * h1) * Vj
-        F8 += (u2 * h2) * Vj
-        D0 += (v0 * h0) * Vj
-        D1 += (v0 * h1) * Vj
-        D2 += (v0 * h2) * Vj
-        D3 += (v1 * h0) * Vj
-        D4 += (v1 * h1) * Vj
-        D5 += (v1 * h2) * Vj
-        D6 += (v2 * h0) * Vj
-        D7 += (v2 * h1) * Vj
-        D8 += (v2 * h2) * Vj
-    FX[i, 0], FX[i, 1], FX[i, 2] = F0, F1, F2
-    FY[i, 0], FY[i, 1], FY[i, 2] = F3, F4, F5
-    FZ[i, 0], FZ[i, 1], FZ[i, 2] = F6, F7, F8
-    FdX[i, 0], FdX[i, 1], FdX[i, 2] = D0, D1, D2
-    FdY[i, 0], FdY[i, 1], FdY[i, 2] = D3, D4, D5
-    FdZ[i, 0], FdZ[i, 1], FdZ[i, 2] = D6, D7, D8
+        t = gradient_terms(i, neighbors[b], b, volume, phi, u, v)
+        F0 += t[0]
+        F1 += t[1]
+        F2 += t[2]
+        F3 += t[3]
+        F4 += t[4]
+        F5 += t[5]
+        F6 += t[6]
+        F7 += t[7]
+        F8 += t[8]
+        D0 += t[9]
+        D1 += t[10]
+        D2 += t[11]
+        D3 += t[12]
+        D4 += t[13]
+        D5 += t[14]
+        D6 += t[15]
+        D7 += t[16]
+        D8 += t[17]
+    store_gradients(i, (F0, F1, F2, F3, F4, F5, F6, F7, F8, D0, D1, D2, D3, D4, D5, D6, D7, D8), FX, FY, FZ, FdX, FdY, FdZ)
+
+
+@njit(cache=True, error_model="numpy")
+def recompute(i, damage_N, damage_NP1):
+    """Whether point i's ω and φ are (re)computed: always without ``damage_N`` (initialize), else
+    where Damage_NP1 - Damage_N > 1.0e-15."""
+    return damage_N.shape[0] == 0 or damage_NP1[i] - damage_N[i] > 1.0e-15
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def phi_or_kept(i, b, X0, X1, X2, again, Mi, horizon, influence, phi):
+    """φ_ij (:func:`phi_bond`) where ``again``, else the bond's φ as it is."""
+    if again:
+        return phi_bond(i, b, X0, X1, X2, Mi, horizon, influence)
+    return phi[b, 0], phi[b, 1], phi[b, 2]
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def gradients_with_identity(i, j, b, first, volume, phi, u, v):
+    """:func:`gradient_terms` of the bond, with the 1.0 of F's diagonal added to the point's first
+    bond (``first``): summed from 0.0, 0.0 + (1.0 + t_1) is 1.0 + t_1 exactly, so F is the
+    hand-written sum from I (1.0 + t_1, then + t_2, ...) bit for bit."""
+    t = gradient_terms(i, j, b, volume, phi, u, v)
+    if first:
+        return (1.0 + t[0], t[1], t[2], t[3], 1.0 + t[4]) + t[5:8] + (1.0 + t[8],) + t[9:18]
+    return t
+
+
+@njit(cache=True, error_model="numpy")
+def gradients_finish_rows(i, acc, has_bonds, FX, FY, FZ, FdX, FdY, FdZ):
+    """F and Ḟ (``acc``, 18 numbers) into the rows of point i, F = I for a point without bonds;
+    returns what was stored."""
+    if not has_bonds:
+        acc = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0) + acc[9:18]
+    store_gradients(i, acc, FX, FY, FZ, FdX, FdY, FdZ)
+    return acc
+
+
+# Loop laws (peridyn.core.traversal) of §9.1-§9.2, run on reference positions: the bond context's
+# (ex, ey, ez) = ξ = x_j - x_i and L = |ξ| (L). The weights' laws take (volume (n,) L^3, horizon
+# (n,) L, omega_kind, omega_table, bond_damage (nb,) NP1 or empty, damage_N (n,) or empty,
+# damage_NP1 (n,), influence (nb,), phi (nb, 3) L^-3, Minv (n, 9) the moment pass's M⁺ per point)
+# as args.
+def weights_point(i, args):
+    """Whether point i's ω and φ are (re)computed (:func:`recompute`)."""
+    return recompute(i, args[5], args[6])
+
+
+def weights_gate(i, b, p, args):
+    """Only the bonds of the points that recompute."""
+    return p
+
+
+def weights_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """ω_ij into influence[b]; the bond's terms of the moment matrix (9 numbers)."""
+    volume, horizon, omega_kind, omega_table, bond_damage, damage_N, damage_NP1, influence, phi, Minv = args
+    return weights_bond(i, j, b, ex, ey, ez, L, volume, horizon, omega_kind, omega_table, bond_damage, influence)
+
+
+def phi_point(i, args):
+    """(recompute, M⁺ of point i from Minv (args[9]))."""
+    return recompute(i, args[5], args[6]), load9(args[9], i)
+
+
+def phi_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """φ_ij where point i recomputes its weights, else the bond's φ unchanged."""
+    volume, horizon, omega_kind, omega_table, bond_damage, damage_N, damage_NP1, influence, phi, Minv = args
+    return phi_or_kept(i, b, ex, ey, ez, p[0], p[1], horizon, influence, phi)
+
+
+def weighted_volume_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """ω_ij V_j (L^3)."""
+    return args[7][b] * args[0][j]
+
+
+# GRADIENTS takes (offsets, volume (n,) L^3, phi (nb, 3), u (n, 3) L, v (n, 3) L/T, FX, FY, FZ,
+# FdX, FdY, FdZ (n, 3) each) as args; F starts from I (see :func:`gradients_with_identity`).
+def gradients_point(i, args):
+    """Position of point i's first bond."""
+    return args[0][i]
+
+
+def gradients_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """The bond's terms of F (from I) and Ḟ: 18 numbers."""
+    offsets, volume, phi, u, v, FX, FY, FZ, FdX, FdY, FdZ = args
+    return gradients_with_identity(i, j, b, b == p, volume, phi, u, v)
+
+
+def gradients_finish(i, acc, p, args):
+    """F and Ḟ into the rows of point i (F = I without bonds); returns them."""
+    offsets, volume, phi, u, v, FX, FY, FZ, FdX, FdY, FdZ = args
+    return gradients_finish_rows(i, acc, offsets[i + 1] > p, FX, FY, FZ, FdX, FdY, FdZ)
+
+
+#: §8.2 first pass: ω_ij written, out (n, 9) = the moment matrices of the points that recompute (gated)
+WEIGHTS_MOMENT = PointSum(weights_term, point=weights_point, gate=weights_gate, width=9, z_from_positions=True)
+#: §8.2 second pass: out (nb, 3) = φ (kept where a point does not recompute)
+WEIGHTS_PHI = BondMap(phi_term, point=phi_point, width=3, z_from_positions=True)
+#: §9.1 step 3: out (n,) = m_i = Σ_j ω_ij V_j
+WEIGHTED_VOLUME = PointSum(weighted_volume_term, z_from_positions=True)
+#: §9.2 step 2: F and Ḟ written as rows; out (n, 18) = (F, Ḟ)
+GRADIENTS = PointSum(gradients_term, point=gradients_point, finish=gradients_finish, width=18, z_from_positions=True)
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def precompute_kernel(start, stop, offsets, neighbors, x, volume, horizon, omega_kind, omega_table, damage_N, damage_NP1, bond_damage,
-                      influence, phi, u, v, FX, FY, FZ, FdX, FdY, FdZ):
-    """§9.2 for the points [start, stop): where Damage_NP1 - Damage_N > 1.0e-15 (``damage_N``
-    non-empty), new ω and φ from the current bond damage (m_i is kept); then F and Ḟ."""
-    check = damage_N.shape[0] > 0
+def weights_inverse_kernel(start, stop, horizon, damage_N, damage_NP1, Msum, Minv):
+    """Between the two passes of §8.2, per point of [start, stop) that recomputes its weights (no
+    bond loop): M⁺ of its moment matrix Msum[i] into Minv[i] (:func:`weights_inverse`)."""
     for i in prange(start, stop):
-        if check and damage_NP1[i] - damage_N[i] > 1.0e-15:
-            gradient_weights_point(i, offsets, neighbors, x, volume, horizon, omega_kind, omega_table, bond_damage, influence, phi)
-        deformation_gradient_point(i, offsets, neighbors, volume, phi, u, v, FX, FY, FZ, FdX, FdY, FdZ)
+        if recompute(i, damage_N, damage_NP1):
+            store9(Minv, i, weights_inverse(i, load9(Msum, i), horizon))
+
+
+def _weights(bk, start, stop, offsets, neighbors, x, gw):
+    """ω and φ (§8.2) of the points of [start, stop) that recompute them."""
+    Msum = np.empty((x.shape[0], 9))
+    bk.kernel(WEIGHTS_MOMENT)(start, stop, offsets, neighbors, x, x, gw, Msum)
+    weights_inverse_kernel(start, stop, gw[1], gw[5], gw[6], Msum, gw[9])
+    bk.kernel(WEIGHTS_PHI)(start, stop, offsets, neighbors, x, x, gw, gw[8])
+
+
+def initialize_kernel(start, stop, offsets, neighbors, x, volume, horizon, omega_kind, omega_table, bond_damage, influence, phi, m,
+                      *, backend=None):
+    """§9.1 steps 1-3 for the points [start, stop): ω_ij and φ_ij (§8.2), then the weighted volume
+    m_i = Σ_j ω_ij V_j (sequential from 0.0), which the family never updates. The laws
+    ``WEIGHTS_MOMENT``, ``WEIGHTS_PHI`` (with the pseudo-inverses of
+    :func:`weights_inverse_kernel` between them) and ``WEIGHTED_VOLUME`` on ``backend`` (None:
+    the default) over the reference positions x."""
+    bk = backend or default_backend()
+    gw = (volume, horizon, omega_kind, omega_table, bond_damage, EMPTY, EMPTY, influence, phi, np.empty((x.shape[0], 9)))
+    _weights(bk, start, stop, offsets, neighbors, x, gw)
+    bk.kernel(WEIGHTED_VOLUME)(start, stop, offsets, neighbors, x, x, gw, m)
+
+
+def precompute_kernel(start, stop, offsets, neighbors, x, volume, horizon, omega_kind, omega_table, damage_N, damage_NP1, bond_damage,
+                      influence, phi, u, v, FX, FY, FZ, FdX, FdY, FdZ, *, backend=None):
+    """§9.2 for the points [start, stop): where Damage_NP1 - Damage_N > 1.0e-15 (``damage_N``
+    non-empty), new ω and φ from the current bond damage (m_i is kept); then F and Ḟ. The laws
+    ``WEIGHTS_MOMENT`` and ``WEIGHTS_PHI`` (only when some point of the range recomputes), then
+    ``GRADIENTS``, on ``backend`` (None: the default) over the reference positions x."""
+    bk = backend or default_backend()
+    if damage_N.shape[0] > 0 and stop > start and np.any(damage_NP1[start:stop] - damage_N[start:stop] > 1.0e-15):
+        gw = (volume, horizon, omega_kind, omega_table, bond_damage, damage_N, damage_NP1, influence, phi, np.empty((x.shape[0], 9)))
+        _weights(bk, start, stop, offsets, neighbors, x, gw)
+    args = (offsets, volume, phi, u, v, FX, FY, FZ, FdX, FdY, FdZ)
+    bk.kernel(GRADIENTS)(start, stop, offsets, neighbors, x, x, args, np.empty((x.shape[0], 18)))
 
 
 # ------------------------------------------------------------------------------------------------
@@ -339,107 +540,194 @@ def node_point(i, FX, FY, FZ, FdX, FdY, FdZ, V_N, R_N, V_NP1, R_NP1, d, sig_N, s
     return NO_CONVERGENCE if failed else 0
 
 
+# The force's bond physics, shared by the loop laws and the per-point helper of the tangent's
+# probes (arrays as arguments: a law's function unpacks its args and calls them; inlined).
+@njit(cache=True, inline="always", error_model="numpy")
+def bond_stress(i, j, b, X0, X1, X2, y, v, volume, m, influence, F6, bV_N, bR_N, bV_NP1, bR_NP1, bsig_N, bsig_NP1, beqps_N, beqps_NP1,
+                prm, dt, P):
+    """§9.3 steps 2-5 for bond b = i→j with ξ = (X0, X1, X2): F_b, Ḟ_b, FT (ω > 0; else V, R
+    copied, d = 0), the stress update (NP1 V, R, σ̂, eqps written at [b]), P_b = (σ_b·F_b⁻ᵀ)·J_b
+    into P[b] (ω > 0). Returns (status, term): status SINGULAR_BOND_F or NO_CONVERGENCE (the bond
+    state is then incomplete) or 0, term the bond's part of 𝒮_i, c (P_b (I - ξ⊗ξ/|ξ|²)) with
+    c = (ω (0.5/m_i + 0.5/m_j)) V_j (9 numbers, zeros where ω <= 0). ``F6`` = (FX, FY, FZ, FdX,
+    FdY, FdZ) the node F and Ḟ rows, ``prm`` = (model, K, G, p0, p1, p2, p3) of the stress update."""
+    FX, FY, FZ, FdX, FdY, FdZ = F6
+    model, K, G, p0, p1, p2, p3 = prm
+    plastic = model != ELASTIC
+    w = influence[b]
+    L2 = X0 * X0 + X1 * X1 + X2 * X2
+    if w > 0.0:
+        Fi = _rows(FX, FY, FZ, i)
+        Fdi = _rows(FdX, FdY, FdZ, i)
+        Fj = _rows(FX, FY, FZ, j)
+        Fdj = _rows(FdX, FdY, FdZ, j)
+        a0, a1, a2 = _bond_row(Fi, Fj, 0, y[j, 0] - y[i, 0], X0, X1, X2, L2)
+        a3, a4, a5 = _bond_row(Fi, Fj, 3, y[j, 1] - y[i, 1], X0, X1, X2, L2)
+        a6, a7, a8 = _bond_row(Fi, Fj, 6, y[j, 2] - y[i, 2], X0, X1, X2, L2)
+        Fb = (a0, a1, a2, a3, a4, a5, a6, a7, a8)
+        a0, a1, a2 = _bond_row(Fdi, Fdj, 0, v[j, 0] - v[i, 0], X0, X1, X2, L2)
+        a3, a4, a5 = _bond_row(Fdi, Fdj, 3, v[j, 1] - v[i, 1], X0, X1, X2, L2)
+        a6, a7, a8 = _bond_row(Fdi, Fdj, 6, v[j, 2] - v[i, 2], X0, X1, X2, L2)
+        Fbd = (a0, a1, a2, a3, a4, a5, a6, a7, a8)
+        Finv, J, ok = inv3(Fb)
+        if not ok:
+            return SINGULAR_BOND_F, ZERO
+        V1, R1, db = flanagan_taylor(matmul(Fbd, Finv), load9(bV_N, b), load9(bR_N, b), dt)
+    else:
+        V1 = load9(bV_N, b)
+        R1 = load9(bR_N, b)
+        db = ZERO
+        Finv = IDENTITY
+        J = 1.0
+    store9(bV_NP1, b, V1)
+    store9(bR_NP1, b, R1)
+    sig, _, e, _, failed = _stress_update(model, load9(bsig_N, b), db, beqps_N[b] if plastic else 0.0, dt, K, G, p0, p1, p2, p3)
+    if failed:
+        return NO_CONVERGENCE, ZERO
+    store9(bsig_NP1, b, sig)
+    if plastic:
+        beqps_NP1[b] = e
+    if w > 0.0:
+        Pb = matmul_nt_scaled(matmul(R1, matmul_nt(sig, R1)), Finv, J)
+        store9(P, b, Pb)
+        q1 = ((-X0) * X1) / L2
+        q2 = ((-X0) * X2) / L2
+        q5 = ((-X1) * X2) / L2
+        Y = matmul(Pb, (1.0 - (X0 * X0) / L2, q1, q2, q1, 1.0 - (X1 * X1) / L2, q5, q2, q5, 1.0 - (X2 * X2) / L2))
+        c = (w * (0.5 / m[i] + 0.5 / m[j])) * volume[j]
+        return 0, (c * Y[0], c * Y[1], c * Y[2], c * Y[3], c * Y[4], c * Y[5], c * Y[6], c * Y[7], c * Y[8])
+    return 0, ZERO
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def bond_force(i, b, X0, X1, X2, Si, m, influence, phi, P):
+    """§9.3 step 6: T(i→j) = (ω/m_i) P_b ξ/|ξ|² + 𝒮_i φ_ij (force per volume squared; zero
+    where ω <= 0), 𝒮_i = ``Si`` (9 numbers)."""
+    w = influence[b]
+    if w > 0.0:
+        mi = m[i]
+        L2 = X0 * X0 + X1 * X1 + X2 * X2
+        h0 = phi[b, 0]
+        h1 = phi[b, 1]
+        h2 = phi[b, 2]
+        return (
+            ((w / mi) * ((P[b, 0] * X0 + P[b, 1] * X1) + P[b, 2] * X2)) / L2 + ((Si[0] * h0 + Si[1] * h1) + Si[2] * h2),
+            ((w / mi) * ((P[b, 3] * X0 + P[b, 4] * X1) + P[b, 5] * X2)) / L2 + ((Si[3] * h0 + Si[4] * h1) + Si[5] * h2),
+            ((w / mi) * ((P[b, 6] * X0 + P[b, 7] * X1) + P[b, 8] * X2)) / L2 + ((Si[6] * h0 + Si[7] * h1) + Si[8] * h2),
+        )
+    return 0.0, 0.0, 0.0
+
+
+# not a loop law: probe helper of fd_tangent_rate (one family inside a parallel iteration); the laws are BOND_STRESS and BOND_FORCE
 @njit(cache=True, error_model="numpy")
 def bond_point(i, offsets, neighbors, x, y, v, volume, m, influence, phi, FX, FY, FZ, FdX, FdY, FdZ,
                bV_N, bR_N, bV_NP1, bR_NP1, bsig_N, bsig_NP1, beqps_N, beqps_NP1, model, K, G, p0, p1, p2, p3, dt, P, T):
     """§9.3 steps 2-6 for i's bonds: F_b, Ḟ_b, FT per bond (ω > 0; else V, R copied, d = 0), the
     stress update of every bond, P_b = (σ_b·F_b⁻ᵀ)·J_b, the stress integral 𝒮_i and the force
-    state T of each bond (zero where ω <= 0). Returns SINGULAR_BOND_F, NO_CONVERGENCE or 0."""
-    Fi = _rows(FX, FY, FZ, i)
-    Fdi = _rows(FdX, FdY, FdZ, i)
-    plastic = model != ELASTIC
-    mi = m[i]
+    state T of each bond (zero where ω <= 0). Returns SINGULAR_BOND_F, NO_CONVERGENCE or 0 (at
+    the first failing bond). The arithmetic of ``BOND_STRESS`` and ``BOND_FORCE`` (the same
+    helpers)."""
+    F6 = (FX, FY, FZ, FdX, FdY, FdZ)
+    prm = (model, K, G, p0, p1, p2, p3)
     S0 = S1 = S2 = S3 = S4 = S5 = S6 = S7 = S8 = 0.0
     for b in range(offsets[i], offsets[i + 1]):
-        w = influence[b]
         j = neighbors[b]
-        X0 = x[j, 0] - x[i, 0]
-        X1 = x[j, 1] - x[i, 1]
-        X2 = x[j, 2] - x[i, 2]
-        L2 = X0 * X0 + X1 * X1 + X2 * X2
-        if w > 0.0:
-            Fj = _rows(FX, FY, FZ, j)
-            Fdj = _rows(FdX, FdY, FdZ, j)
-            a0, a1, a2 = _bond_row(Fi, Fj, 0, y[j, 0] - y[i, 0], X0, X1, X2, L2)
-            a3, a4, a5 = _bond_row(Fi, Fj, 3, y[j, 1] - y[i, 1], X0, X1, X2, L2)
-            a6, a7, a8 = _bond_row(Fi, Fj, 6, y[j, 2] - y[i, 2], X0, X1, X2, L2)
-            Fb = (a0, a1, a2, a3, a4, a5, a6, a7, a8)
-            a0, a1, a2 = _bond_row(Fdi, Fdj, 0, v[j, 0] - v[i, 0], X0, X1, X2, L2)
-            a3, a4, a5 = _bond_row(Fdi, Fdj, 3, v[j, 1] - v[i, 1], X0, X1, X2, L2)
-            a6, a7, a8 = _bond_row(Fdi, Fdj, 6, v[j, 2] - v[i, 2], X0, X1, X2, L2)
-            Fbd = (a0, a1, a2, a3, a4, a5, a6, a7, a8)
-            Finv, J, ok = inv3(Fb)
-            if not ok:
-                return SINGULAR_BOND_F
-            V1, R1, db = flanagan_taylor(matmul(Fbd, Finv), load9(bV_N, b), load9(bR_N, b), dt)
-        else:
-            V1 = load9(bV_N, b)
-            R1 = load9(bR_N, b)
-            db = ZERO
-            Finv = IDENTITY
-            J = 1.0
-        store9(bV_NP1, b, V1)
-        store9(bR_NP1, b, R1)
-        sig, _, e, _, failed = _stress_update(model, load9(bsig_N, b), db, beqps_N[b] if plastic else 0.0, dt, K, G, p0, p1, p2, p3)
-        if failed:
-            return NO_CONVERGENCE
-        store9(bsig_NP1, b, sig)
-        if plastic:
-            beqps_NP1[b] = e
-        if w > 0.0:
-            Pb = matmul_nt_scaled(matmul(R1, matmul_nt(sig, R1)), Finv, J)
-            store9(P, b, Pb)
-            q1 = ((-X0) * X1) / L2
-            q2 = ((-X0) * X2) / L2
-            q5 = ((-X1) * X2) / L2
-            Y = matmul(Pb, (1.0 - (X0 * X0) / L2, q1, q2, q1, 1.0 - (X1 * X1) / L2, q5, q2, q5, 1.0 - (X2 * X2) / L2))
-            c = (w * (0.5 / mi + 0.5 / m[j])) * volume[j]
-            S0 += c * Y[0]
-            S1 += c * Y[1]
-            S2 += c * Y[2]
-            S3 += c * Y[3]
-            S4 += c * Y[4]
-            S5 += c * Y[5]
-            S6 += c * Y[6]
-            S7 += c * Y[7]
-            S8 += c * Y[8]
+        code, t = bond_stress(i, j, b, x[j, 0] - x[i, 0], x[j, 1] - x[i, 1], x[j, 2] - x[i, 2], y, v, volume, m, influence, F6,
+                              bV_N, bR_N, bV_NP1, bR_NP1, bsig_N, bsig_NP1, beqps_N, beqps_NP1, prm, dt, P)
+        if code != 0:
+            return code
+        S0 += t[0]
+        S1 += t[1]
+        S2 += t[2]
+        S3 += t[3]
+        S4 += t[4]
+        S5 += t[5]
+        S6 += t[6]
+        S7 += t[7]
+        S8 += t[8]
+    Si = (S0, S1, S2, S3, S4, S5, S6, S7, S8)
     for b in range(offsets[i], offsets[i + 1]):
-        w = influence[b]
-        if w > 0.0:
-            j = neighbors[b]
-            X0 = x[j, 0] - x[i, 0]
-            X1 = x[j, 1] - x[i, 1]
-            X2 = x[j, 2] - x[i, 2]
-            L2 = X0 * X0 + X1 * X1 + X2 * X2
-            h0 = phi[b, 0]
-            h1 = phi[b, 1]
-            h2 = phi[b, 2]
-            T[b, 0] = ((w / mi) * ((P[b, 0] * X0 + P[b, 1] * X1) + P[b, 2] * X2)) / L2 + ((S0 * h0 + S1 * h1) + S2 * h2)
-            T[b, 1] = ((w / mi) * ((P[b, 3] * X0 + P[b, 4] * X1) + P[b, 5] * X2)) / L2 + ((S3 * h0 + S4 * h1) + S5 * h2)
-            T[b, 2] = ((w / mi) * ((P[b, 6] * X0 + P[b, 7] * X1) + P[b, 8] * X2)) / L2 + ((S6 * h0 + S7 * h1) + S8 * h2)
-        else:
-            T[b, 0] = 0.0
-            T[b, 1] = 0.0
-            T[b, 2] = 0.0
+        j = neighbors[b]
+        T[b, 0], T[b, 1], T[b, 2] = bond_force(i, b, x[j, 0] - x[i, 0], x[j, 1] - x[i, 1], x[j, 2] - x[i, 2], Si, m, influence, phi, P)
     return 0
 
 
+@njit(cache=True, inline="always", error_model="numpy")
+def bond_stress_status(i, j, b, X0, X1, X2, y, v, volume, m, influence, F6, bV_N, bR_N, bV_NP1, bR_NP1, bsig_N, bsig_NP1, beqps_N,
+                       beqps_NP1, prm, dt, P, status):
+    """:func:`bond_stress`, its failure code into status[i] unless the point has one already (the
+    node's, or an earlier bond's); returns the bond's term of 𝒮_i."""
+    code, t = bond_stress(i, j, b, X0, X1, X2, y, v, volume, m, influence, F6, bV_N, bR_N, bV_NP1, bR_NP1, bsig_N, bsig_NP1, beqps_N,
+                          beqps_NP1, prm, dt, P)
+    if code != 0 and status[i] == 0:
+        status[i] = code
+    return t
+
+
 @njit(cache=True, parallel=True, error_model="numpy")
+def node_kernel(start, stop, FX, FY, FZ, FdX, FdY, FdZ, V_N, R_N, V_NP1, R_NP1, d, sig_N, sig_NP1, cauchy, vm, triax, eqps_N, eqps_NP1,
+                E_N, E_NP1, model, K, G, p0, p1, p2, p3, dt, status):
+    """:func:`node_point` of the points [start, stop) (no bond loop); its code into status[i]."""
+    for i in prange(start, stop):
+        status[i] = node_point(i, FX, FY, FZ, FdX, FdY, FdZ, V_N, R_N, V_NP1, R_NP1, d, sig_N, sig_NP1, cauchy, vm, triax, eqps_N, eqps_NP1,
+                               E_N, E_NP1, model, K, G, p0, p1, p2, p3, dt)
+
+
+# Loop laws (peridyn.core.traversal) of §9.3, run on reference positions: the bond context's
+# (ex, ey, ez) = ξ = x_j - x_i (L). args (y (n, 3) L, v (n, 3) L/T, volume (n,) L^3, m (n,) L^3,
+# influence (nb,), phi (nb, 3) L^-3, FX, FY, FZ, FdX, FdY, FdZ (n, 3) each, bV_N, bR_N, bV_NP1,
+# bR_NP1, bsig_N, bsig_NP1 (nb, 9), beqps_N, beqps_NP1 (nb,) or empty, model, K, G, p0, p1, p2,
+# p3, dt T, P (nb, 9) the bond Piola stresses, S (n, 9) the first pass's output, the stress
+# integrals, status (n,) int8); flat (a tuple of numbers inside args is no parallel kernel
+# argument).
+def bond_stress_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """The bond's NP1 state and P_b written, its term of 𝒮_i (9 numbers); a failure's code into
+    status[i] (:func:`bond_stress_status`)."""
+    (y, v, volume, m, influence, phi, FX, FY, FZ, FdX, FdY, FdZ, bV_N, bR_N, bV_NP1, bR_NP1, bsig_N, bsig_NP1, beqps_N, beqps_NP1,
+     model, K, G, p0, p1, p2, p3, dt, P, S, status) = args
+    return bond_stress_status(i, j, b, ex, ey, ez, y, v, volume, m, influence, (FX, FY, FZ, FdX, FdY, FdZ), bV_N, bR_N, bV_NP1, bR_NP1,
+                              bsig_N, bsig_NP1, beqps_N, beqps_NP1, (model, K, G, p0, p1, p2, p3), dt, P, status)
+
+
+def integral_load(i, args):
+    """𝒮_i (9 numbers) from the first pass's output S (args[29])."""
+    return load9(args[29], i)
+
+
+def bond_force_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """T(i→j) (3 numbers, :func:`bond_force`) with 𝒮_i = p."""
+    return bond_force(i, b, ex, ey, ez, p, args[3], args[4], args[5], args[28])
+
+
+#: §9.3 steps 2-5: the NP1 bond states and P written; out (n, 9) = 𝒮_i
+BOND_STRESS = PointSum(bond_stress_term, width=9, z_from_positions=True)
+#: §9.3 step 6: out (nb, 3) = T of the points' bonds, from 𝒮 (args[29]) of the first pass
+BOND_FORCE = BondMap(bond_force_term, point=integral_load, width=3, z_from_positions=True)
+
+
 def force_kernel(start, stop, offsets, neighbors, x, y, v, volume, m, influence, phi, FX, FY, FZ, FdX, FdY, FdZ,
                  V_N, R_N, V_NP1, R_NP1, d, sig_N, sig_NP1, cauchy, vm, triax, eqps_N, eqps_NP1, E_N, E_NP1,
-                 bV_N, bR_N, bV_NP1, bR_NP1, bsig_N, bsig_NP1, beqps_N, beqps_NP1, model, K, G, p0, p1, p2, p3, dt, P, T):
-    """§9.3 for the points [start, stop): :func:`node_point` then :func:`bond_point` per point.
-    Node arrays (n, 9) / (n,), bond arrays (nb, 9) / (nb,); eqps, triax arrays may be empty for
-    ELASTIC, ``E_N``/``E_NP1`` empty when Green_Lagrange_Strain is not wanted. Returns
-    (first point with a problem or -1, its status code)."""
-    status = np.zeros(max(stop - start, 0), dtype=np.int8)
-    for i in prange(start, stop):
-        a = node_point(i, FX, FY, FZ, FdX, FdY, FdZ, V_N, R_N, V_NP1, R_NP1, d, sig_N, sig_NP1, cauchy, vm, triax, eqps_N, eqps_NP1,
-                       E_N, E_NP1, model, K, G, p0, p1, p2, p3, dt)
-        c = bond_point(i, offsets, neighbors, x, y, v, volume, m, influence, phi, FX, FY, FZ, FdX, FdY, FdZ,
-                       bV_N, bR_N, bV_NP1, bR_NP1, bsig_N, bsig_NP1, beqps_N, beqps_NP1, model, K, G, p0, p1, p2, p3, dt, P, T)
-        status[i - start] = a if a != 0 else c
-    for k in range(status.shape[0]):
-        if status[k] != 0:
-            return start + k, int(status[k])
+                 bV_N, bR_N, bV_NP1, bR_NP1, bsig_N, bsig_NP1, beqps_N, beqps_NP1, model, K, G, p0, p1, p2, p3, dt, P, T,
+                 *, backend=None, S=None):
+    """§9.3 for the points [start, stop): :func:`node_point` per point (:func:`node_kernel`),
+    then the laws ``BOND_STRESS`` and ``BOND_FORCE`` on ``backend`` (None: the default) over the
+    reference positions x. Node arrays (n, 9) / (n,), bond arrays (nb, 9) / (nb,); eqps, triax
+    arrays may be empty for ELASTIC, ``E_N``/``E_NP1`` empty when Green_Lagrange_Strain is not
+    wanted; ``S`` (n, 9) scratch for the stress integrals, else one is made. Returns (first point with a problem
+    or -1, its status code: the node's, else its first failing bond's)."""
+    bk = backend or default_backend()
+    n = x.shape[0]
+    if S is None:
+        S = np.empty((n, 9))
+    status = np.zeros(n, dtype=np.int8)
+    node_kernel(start, stop, FX, FY, FZ, FdX, FdY, FdZ, V_N, R_N, V_NP1, R_NP1, d, sig_N, sig_NP1, cauchy, vm, triax, eqps_N, eqps_NP1,
+                E_N, E_NP1, model, K, G, p0, p1, p2, p3, dt, status)
+    bond = (y, v, volume, m, influence, phi, FX, FY, FZ, FdX, FdY, FdZ, bV_N, bR_N, bV_NP1, bR_NP1, bsig_N, bsig_NP1, beqps_N, beqps_NP1,
+            model, K, G, p0, p1, p2, p3, dt, P, S, status)
+    bk.kernel(BOND_STRESS)(start, stop, offsets, neighbors, x, x, bond, S)
+    bk.kernel(BOND_FORCE)(start, stop, offsets, neighbors, x, x, bond, T)
+    hits = np.flatnonzero(status[start:stop])
+    if hits.size:
+        k = start + int(hits[0])
+        return k, int(status[k])
     return -1, 0

@@ -8,6 +8,11 @@ update of the model in the unrotated configuration, the Cauchy stress, A = P K�
 force state of every bond of the block's points, T(i→j) = ω (A_i ξ) plus the hourglass term
 M(i→j) η. The engine gathers T from both bond ends (the non-ordinary path of
 :class:`peridyn.core.interfaces.Material`). Bond damage is ignored, as in Peridigm.
+
+Loops are loop laws (:mod:`peridyn.core.traversal`) run by the block's backend: the kinematics
+(:mod:`.kinematics`: ``SHAPE_TENSOR``, ``KINEMATICS``), the bond force states ``BOND_STATES`` or,
+with an hourglass force, ``BOND_STATES_HOURGLASS`` (:class:`BondMap` of width 3, below) and Partial_Stress (:mod:`.forces`: ``PARTIAL_STRESS``); the
+stress updates have no bond loop; the implicit tangent (:mod:`.fd_tangent`) stays hand-written.
 """
 from __future__ import annotations
 
@@ -16,14 +21,15 @@ import math
 from typing import Any, ClassVar
 
 import numpy as np
-from numba import njit, prange
 
 from ...core.errors import InstabilityError
 from ...core.fields import FieldSpec, Length, Relation, Temporal
 from ...core.interfaces import BlockView, ElasticModuli, Material
+from ...core.traversal import BondMap
+from ...kernels import compiled
 from ..moduli import bulk_and_shear, isotropic_moduli
 from . import params as P
-from .forces import _force_state, _hourglass_bond, partial_stress_kernel
+from .forces import force_state_bond, hourglass_bond, partial_stress_kernel
 from .kinematics import kinematics_kernel, shape_tensor_kernel
 from .stress import (
     MAX_BISECTION,
@@ -43,23 +49,28 @@ TENSOR2 = Temporal.TWO_STEP
 IDENTITY = np.array([1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0])
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def bond_states_kernel(start, stop, offsets, neighbors, x, y, horizon, omega_kind, omega_table, A, F, c1, T):
-    """T[b] = ω(ζ, δ_i)(A_i ξ) + M(i→j) η for every bond b = i→j of the rows [start, stop):
-    the classic vector force state (force per volume squared) with the hourglass term of
-    §7 (c1 = 18 C K / π; none when c1 == 0)."""
-    for i in prange(start, stop):
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            tx, ty, tz, _, _, _ = _force_state(A, i, x, j, horizon[i], omega_kind, omega_table, b)
-            if c1 != 0.0:
-                hx, hy, hz = _hourglass_bond(i, j, x, y, F, c1, horizon[i])
-                tx += hx
-                ty += hy
-                tz += hz
-            T[b, 0] = tx
-            T[b, 1] = ty
-            T[b, 2] = tz
+# Loop laws (peridyn.core.traversal), run on reference positions: the bond context's (ex, ey, ez) =
+# ξ = x_j - x_i and L = ζ = |ξ| (L). args (y (n, 3) current positions L, horizon (n,) L,
+# omega_kind, omega_table (nb,) or empty, A (n, 9) = P K⁻¹ M L^-6 T^-2, F (n, 9), c1 M L^-1 T^-2).
+# Two variants, picked by the material's c1: without the hourglass term (c1 == 0) and with it.
+def bond_state(i, j, b, ex, ey, ez, L, z, p, args):
+    """T(i→j) = ω(ζ, δ_i)(A_i ξ) (force per volume squared): the classic vector force state."""
+    y, horizon, omega_kind, omega_table, A, F, c1 = args
+    return force_state_bond(A, i, ex, ey, ez, L, horizon[i], omega_kind, omega_table, b)
+
+
+def bond_state_hourglass(i, j, b, ex, ey, ez, L, z, p, args):
+    """T(i→j) = ω(ζ, δ_i)(A_i ξ) + M(i→j) η: with the hourglass term of §7 (c1 = 18 C K / π)."""
+    y, horizon, omega_kind, omega_table, A, F, c1 = args
+    tx, ty, tz = force_state_bond(A, i, ex, ey, ez, L, horizon[i], omega_kind, omega_table, b)
+    hx, hy, hz = hourglass_bond(i, j, ex, ey, ez, L, y, F, c1, horizon[i])
+    return tx + hx, ty + hy, tz + hz
+
+
+#: T (nb, 3) of the bonds of a range of points, c1 == 0
+BOND_STATES = BondMap(bond_state, width=3, z_from_positions=True)
+#: T (nb, 3) with the hourglass term, c1 != 0
+BOND_STATES_HOURGLASS = BondMap(bond_state_hourglass, width=3, z_from_positions=True)
 
 
 class ClassicCorrespondence(Material):
@@ -164,7 +175,7 @@ class ClassicCorrespondence(Material):
             s.np1(name)[lo:hi] = 0.0
         kind, table = self._omega(block)
         bad = shape_tensor_kernel(lo, hi, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Coordinates"], s["Volume"], s["Horizon"],
-                                  kind, table, s["Shape_Tensor_Inverse"], s["Deformation_Gradient"])
+                                  kind, table, s["Shape_Tensor_Inverse"], s["Deformation_Gradient"], backend=block.backend)
         if bad >= 0:
             self._singular(block, bad, "shape tensor")
 
@@ -179,6 +190,7 @@ class ClassicCorrespondence(Material):
             lo, hi, nl.offsets, nl.neighbors, x, y, s["Velocity"], vol, hz, kind, table,
             s.n("Left_Stretch_Tensor"), s.n("Rotation_Tensor"), float(block.time_step),
             s["Shape_Tensor_Inverse"], s["Deformation_Gradient"], s.np1("Left_Stretch_Tensor"), s.np1("Rotation_Tensor"), d,
+            backend=block.backend,
         )
         if bad_k >= 0:
             self._singular(block, bad_k, "shape tensor")
@@ -191,11 +203,12 @@ class ClassicCorrespondence(Material):
                                   s["Shape_Tensor_Inverse"], sigma, A)
         if bad >= 0:
             self._singular(block, bad, "deformation gradient")
-        bond_states_kernel(lo, hi, nl.offsets, nl.neighbors, x, y, hz, kind, table, A, s["Deformation_Gradient"], float(self.c1), T)
+        args = (y, hz, kind, table, A, s["Deformation_Gradient"], float(self.c1))
+        compiled(block, BOND_STATES_HOURGLASS if self.c1 != 0.0 else BOND_STATES)(lo, hi, nl.offsets, nl.neighbors, x, x, args, T)
         if "Partial_Stress" in s:
             ps = s["Partial_Stress"]
             ps[lo:hi] = 0.0
-            partial_stress_kernel(lo, hi, nl.offsets, nl.neighbors, x, vol, hz, kind, table, A, ps)
+            partial_stress_kernel(lo, hi, nl.offsets, nl.neighbors, x, vol, hz, kind, table, A, ps, backend=block.backend)
 
     def _update_stress(self, block: BlockView, d: np.ndarray) -> None:
         raise NotImplementedError

@@ -14,7 +14,7 @@ of points beyond ``nrows`` dropped), points in ``pts`` order: the same arithmeti
 order, as the solver's Python finite-difference path, hence the same matrix bit for bit.
 
 What does not depend on y and v is computed once per point (:func:`prepare_point`): K⁻¹ (the
-arithmetic of :func:`.kinematics.kinematics_point`), the reference bonds, their influence
+arithmetic of the ``KINEMATICS`` law of :mod:`.kinematics`), the reference bonds, their influence
 weights, the unperturbed η, Δv, 1/|η| and the running N and A sums. A probe of q re-adds the N
 and A sums from the first bond to q only (the terms before it, and their partial sums, are the
 unperturbed ones), and reads the unperturbed bond data of every bond not touching q; every
@@ -66,10 +66,11 @@ _X0, _X1, _X2, _ZETA, _WV, _W, _VJ, _E0, _E1, _E2, _ILEN, _U0, _U1, _U2, _Y0, _Y
 NC = 20
 
 
+# not a loop law: per-point set-up of the finite-difference tangent, run for one family inside its parallel iteration
 @njit(cache=True, error_model="numpy")
 def prepare_point(i, offsets, neighbors, x, y, v, volume, horizon, omega_kind, omega_table, bc, pre, Kinv):
     """The probe-independent part of point i's kinematics: the bond cache ``bc`` (see above),
-    K⁻¹ into row i of ``Kinv`` (the arithmetic of :func:`.kinematics.kinematics_point`: K does
+    K⁻¹ into row i of ``Kinv`` (the arithmetic of :mod:`.kinematics`' ``KINEMATICS``: K does
     not depend on y or v), and the running sums of N and A of the unperturbed state,
     ``pre[k] = (N_0..N_8, A_0..A_8)`` after the first k bonds (list order, from 0.0): a probe
     that moves neither i nor any of the first k neighbours accumulates the same prefix. Returns
@@ -174,6 +175,7 @@ def prepare_point(i, offsets, neighbors, x, y, v, volume, horizon, omega_kind, o
     return 0 if okK else 1
 
 
+# not a loop law: one probe of the finite-difference tangent on a private copy of one family, inside a parallel iteration
 @njit(cache=True, error_model="numpy")
 def probe_point(
     i, q, start, offsets, neighbors, x, y, v, volume, V_N, R_N, sigma_N, eqps_N, dt, model, prm, dT_N, dT_NP1, c1, c,
@@ -184,8 +186,8 @@ def probe_point(
     the cache of :func:`prepare_point`: the N and A sums resume from ``pre[start]`` (``start``:
     the first bond to q, 0 when q == i), the bonds to points other than q (and i) read their
     unperturbed η, Δv and 1/|η| from ``bc``; every sum runs in the order of
-    :func:`.kinematics.kinematics_point` and :func:`.forces._force_state` /
-    :func:`.forces._hourglass_bond` (c = c1/(((δ_i δ_i) δ_i) δ_i)). Scratch outputs F ... A are
+    :mod:`.kinematics`' ``KINEMATICS`` and :func:`.forces.force_state_bond` /
+    :func:`.forces.hourglass_bond` (c = c1/(((δ_i δ_i) δ_i) δ_i)). Scratch outputs F ... A are
     (n, 9) (eqps1, vm (n,)), row i written. Returns 0 or 2 (singular deformation gradient)."""
     o = offsets[i]
     e = offsets[i + 1]
@@ -362,6 +364,7 @@ def probe_point(
     return 0
 
 
+# not a loop law: assembles one point's dense block of the finite-difference tangent (every probe of its family)
 @njit(cache=True, error_model="numpy")
 def point_block(
     i, offsets, neighbors, x, y, v, volume, horizon, omega_kind, omega_table, V_N, R_N, sigma_N, eqps_N, dt,
@@ -414,6 +417,7 @@ def point_block(
     return 0
 
 
+# not a loop law: scatters a point's block into the block-sparse matrix (row maps, not bond sums)
 @njit(cache=True, error_model="numpy")
 def scatter_rows(w, W, i, offsets, neighbors, nrows, row_of_local, Kloc, indptr, indices, data):
     """data += the rows r (r % W == w) of point i's local block Kloc (row-major 3 ns x 3 ns,
@@ -452,6 +456,7 @@ def scatter_rows(w, W, i, offsets, neighbors, nrows, row_of_local, Kloc, indptr,
                         data[left, dd, c] += Kloc[base + c]
 
 
+# not a loop law: parallel over points, each assembling and scattering its block-sparse rows
 @njit(cache=True, parallel=True, error_model="numpy")
 def fd_tangent_kernel(
     pts, offsets, neighbors, x, y, v, volume, horizon, omega_kind, omega_table, V_N, R_N, sigma_N, eqps_N, dt,

@@ -29,6 +29,7 @@ from . import bond_associated_kernels as BK
 from . import hypoelastic_kernels as HK
 from .fd_tangent import scatter_rows
 
+# not a loop law: one column of a point's local block from its finite-difference quotients
 @njit(cache=True, error_model="numpy")
 def _column(Kloc, m, col, ns, o, neighbors, volume, i, Fp, Fm, eps):
     """Kloc[r, col] = (((F+_r - F-_r)/eps)·0.5)·V_s(r) (row-major m x m)."""
@@ -41,6 +42,7 @@ def _column(Kloc, m, col, ns, o, neighbors, volume, i, Fp, Fm, eps):
             r += 1
 
 
+# not a loop law: one point's block of the finite-difference tangent (every probe of its family, inside a parallel iteration)
 @njit(cache=True, error_model="numpy")
 def hypo_point_block(i, offsets, neighbors, y, v, volume, horizon, J_N, bond_damage, omega_kind, omega_table, dt, eps, dv,
                      L, m0, phi, Jw, Vb_N, Rb_N, Sb_N, eb_N, model, K, G, sy, ec, nexp, Vb_NP1, Rb_NP1, Sb_NP1, eb_NP1, T,
@@ -71,6 +73,7 @@ def hypo_point_block(i, offsets, neighbors, y, v, volume, horizon, J_N, bond_dam
             _column(Kloc, m, 3 * a + cc, ns, o, neighbors, volume, i, Fp, Fm, eps)
 
 
+# not a loop law: parallel over a batch of points, each assembling its dense local block
 @njit(cache=True, parallel=True, error_model="numpy")
 def hypo_blocks(pts, k0, k1, offsets, neighbors, ys, vs, volume, horizon, J_N, bond_damage, omega_kind, omega_table, dt, eps, dv,
                 L, m0, Ls, m0s, phi, phi0, Js, Vb_N, Rb_N, Sb_N, eb_N, model, K, G, sy, ec, nexp, Vb_NP1, Rb_NP1, Sb_NP1, eb_NP1, T,
@@ -94,6 +97,7 @@ def hypo_blocks(pts, k0, k1, offsets, neighbors, ys, vs, volume, horizon, J_N, b
                 phi[b, 2] = phi0[b, 2]
 
 
+# not a loop law: one point's block of the finite-difference tangent (every probe of its family, inside a parallel iteration)
 @njit(cache=True, error_model="numpy")
 def ba_point_block(i, offsets, neighbors, x, y, v, u, volume, horizon, omega_kind, omega_table, check, damage_N, damage_NP1,
                    bond_damage, influence, phi, m, FX, FY, FZ, FdX, FdY, FdZ, bV_N, bR_N, bV_NP1, bR_NP1, bsig_N, bsig_NP1,
@@ -129,6 +133,7 @@ def ba_point_block(i, offsets, neighbors, x, y, v, u, volume, horizon, omega_kin
     return 0
 
 
+# not a loop law: parallel over a batch of points, each assembling its dense local block
 @njit(cache=True, parallel=True, error_model="numpy")
 def ba_blocks(pts, k0, k1, offsets, neighbors, x, ys, vs, u, volume, horizon, omega_kind, omega_table, check, damage_N, damage_NP1,
               bond_damage, influence, phi, m, F6, F6s, bV_N, bR_N, bV_NP1, bR_NP1, bsig_N, bsig_NP1, beqps_N, beqps_NP1,
@@ -150,6 +155,7 @@ def ba_blocks(pts, k0, k1, offsets, neighbors, x, ys, vs, u, volume, horizon, om
                     Fw[r, i, c] = F6[r, i, c]
 
 
+# not a loop law: scatters dense local blocks into the block-sparse matrix (row maps, not bond sums)
 @njit(cache=True, parallel=True, error_model="numpy")
 def scatter_batch(pts, k0, k1, W, offsets, neighbors, nrows, row_of_local, Kbuf, indptr, indices, data):
     """Add the blocks of pts[k0:k1] (Kbuf[k - k0]) into the matrix, worker w the rows r % W == w,

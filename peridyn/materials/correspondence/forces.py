@@ -17,6 +17,13 @@ gives) and one block, the result is therefore bit-identical to the scatter; othe
 point order, several blocks summed afterwards, other in-bond orders) the summation order differs
 from Peridigm's scatter only by round-off.
 
+Loops: Partial_Stress is the loop law ``PARTIAL_STRESS`` (:mod:`peridyn.core.traversal`, a
+:class:`PointSum` of 9 components over i's own bonds); the per-bond physics, :func:`force_state_bond`
+(ω (A ξ)) and :func:`hourglass_bond` (M η), is shared with the classic material's ``BOND_STATES``
+and the Hourglass_Force_Density output. :func:`force_kernel` and :func:`hourglass_kernel` (tests and
+reference: the engine gathers the bond states instead) interleave the incoming bonds with i's own
+ones and stay hand-written.
+
 Shapes and units: x, y (n, 3) reference and current (NP1) positions (L); volume (n,) (L^3);
 horizon (n,) the Horizon field (L); A (n, 9) = P·K⁻¹ per point (from
 :func:`.stress.rotate_piola_kernel`, M L^-6 T^-2); F (n, 9); force densities (n, 3) (M L^-2 T^-2,
@@ -29,26 +36,36 @@ import math
 
 from numba import njit, prange
 
+from ...core.traversal import PointSum
+from ...kernels import default_backend
 from ...core.influence import omega
 
 PI = 3.141592653589793  # PeridigmNS::value_of_pi
 
 
 @njit(cache=True, inline="always")
-def _force_state(A, p, x, q, delta, omega_kind, omega_table, b):
-    """T(p→q) = ω(ζ, δ_p) (A_p ξ) of bond b = p→q, ξ = x_q - x_p (force per volume squared):
-    T_a = w ((A_a0 ξx + A_a1 ξy) + A_a2 ξz)."""
-    X0 = x[q, 0] - x[p, 0]
-    X1 = x[q, 1] - x[p, 1]
-    X2 = x[q, 2] - x[p, 2]
-    zeta = math.sqrt(X0 * X0 + X1 * X1 + X2 * X2)
+def force_state_bond(A, p, X0, X1, X2, zeta, delta, omega_kind, omega_table, b):
+    """T(p→q) = ω(ζ, δ_p) (A_p ξ) of bond b = p→q with ξ = (X0, X1, X2) = x_q - x_p and
+    ζ = sqrt((ξx ξx + ξy ξy) + ξz ξz) (force per volume squared): T_a = w ((A_a0 ξx + A_a1 ξy) + A_a2 ξz)."""
     w = omega(omega_kind, zeta, delta, omega_table, b)
     Tx = w * ((A[p, 0] * X0 + A[p, 1] * X1) + A[p, 2] * X2)
     Ty = w * ((A[p, 3] * X0 + A[p, 4] * X1) + A[p, 5] * X2)
     Tz = w * ((A[p, 6] * X0 + A[p, 7] * X1) + A[p, 8] * X2)
+    return Tx, Ty, Tz
+
+
+@njit(cache=True, inline="always")
+def _force_state(A, p, x, q, delta, omega_kind, omega_table, b):
+    """:func:`force_state_bond` of bond b = p→q with ξ = x_q - x_p: (Tx, Ty, Tz, ξx, ξy, ξz)."""
+    X0 = x[q, 0] - x[p, 0]
+    X1 = x[q, 1] - x[p, 1]
+    X2 = x[q, 2] - x[p, 2]
+    zeta = math.sqrt(X0 * X0 + X1 * X1 + X2 * X2)
+    Tx, Ty, Tz = force_state_bond(A, p, X0, X1, X2, zeta, delta, omega_kind, omega_table, b)
     return Tx, Ty, Tz, X0, X1, X2
 
 
+# not a loop law: sums the incoming bonds' reactions before and after i's own bonds (Peridigm's scatter order), not bond order
 @njit(cache=True, error_model="numpy")
 def force_point(i, offsets, neighbors, in_offsets, in_bonds, sources, x, volume, horizon, omega_kind, omega_table, A, f):
     """f_i = Σ_{j∈N_i} T(i→j) V_j - Σ_{bonds j→i} T(j→i) V_j into row i of f."""
@@ -85,45 +102,31 @@ def force_point(i, offsets, neighbors, in_offsets, in_bonds, sources, x, volume,
     f[i, 2] = fz
 
 
-@njit(cache=True, error_model="numpy")
-def partial_stress_point(i, offsets, neighbors, x, volume, horizon, omega_kind, omega_table, A, S):
-    """Partial_Stress_i[a][b] = Σ_j (T_a ξ_b) V_j over i's own bonds, into row i of S."""
-    S0 = S1 = S2 = S3 = S4 = S5 = S6 = S7 = S8 = 0.0
-    dI = horizon[i]
-    for b in range(offsets[i], offsets[i + 1]):
-        j = neighbors[b]
-        Tx, Ty, Tz, X0, X1, X2 = _force_state(A, i, x, j, dI, omega_kind, omega_table, b)
-        Vj = volume[j]
-        S0 += (Tx * X0) * Vj
-        S1 += (Tx * X1) * Vj
-        S2 += (Tx * X2) * Vj
-        S3 += (Ty * X0) * Vj
-        S4 += (Ty * X1) * Vj
-        S5 += (Ty * X2) * Vj
-        S6 += (Tz * X0) * Vj
-        S7 += (Tz * X1) * Vj
-        S8 += (Tz * X2) * Vj
-    S[i, 0] = S0
-    S[i, 1] = S1
-    S[i, 2] = S2
-    S[i, 3] = S3
-    S[i, 4] = S4
-    S[i, 5] = S5
-    S[i, 6] = S6
-    S[i, 7] = S7
-    S[i, 8] = S8
+# Loop law (peridyn.core.traversal), run on reference positions: the bond context's (ex, ey, ez) =
+# ξ = x_j - x_i and L = ζ = |ξ| (L). args (volume (n,) L^3, horizon (n,) L, omega_kind,
+# omega_table (nb,) or empty, A (n, 9) M L^-6 T^-2).
+def partial_stress_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """(T(i→j) ⊗ ξ) V_j of the bond, row-major (M/(L T^2)): entry ab = (T_a ξ_b) V_j."""
+    volume, horizon, omega_kind, omega_table, A = args
+    Tx, Ty, Tz = force_state_bond(A, i, ex, ey, ez, L, horizon[i], omega_kind, omega_table, b)
+    Vj = volume[j]
+    return (
+        (Tx * ex) * Vj, (Tx * ey) * Vj, (Tx * ez) * Vj,
+        (Ty * ex) * Vj, (Ty * ey) * Vj, (Ty * ez) * Vj,
+        (Tz * ex) * Vj, (Tz * ey) * Vj, (Tz * ez) * Vj,
+    )
+
+
+#: Partial_Stress_i = Σ_j (T(i→j) ⊗ ξ) V_j over i's own bonds; out (n, 9)
+PARTIAL_STRESS = PointSum(partial_stress_term, width=9, z_from_positions=True)
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _hourglass_bond(p, q, x, y, F, c1, delta):
-    """(M η_x, M η_y, M η_z) of bond p→q, §7: c_p = c1/(((δ_p δ_p) δ_p) δ_p),
-    e_a = ((y_p,a + F_a0 ξx) + F_a1 ξy) + F_a2 ξz, h = e - y_q, dot = -((h·η)),
-    M = ((1.0 - 0.0) c_p (dot/ζ)) (1.0/|η|) with ξ, η the bond's reference and current vectors."""
+def hourglass_bond(p, q, X0, X1, X2, zeta, y, F, c1, delta):
+    """(M η_x, M η_y, M η_z) of bond p→q, §7, with ξ = (X0, X1, X2) = x_q - x_p and ζ = |ξ|:
+    c_p = c1/(((δ_p δ_p) δ_p) δ_p), e_a = ((y_p,a + F_a0 ξx) + F_a1 ξy) + F_a2 ξz, h = e - y_q,
+    dot = -((h·η)), M = ((1.0 - 0.0) c_p (dot/ζ)) (1.0/|η|) with η = y_q - y_p the current bond."""
     c = c1 / (((delta * delta) * delta) * delta)
-    X0 = x[q, 0] - x[p, 0]
-    X1 = x[q, 1] - x[p, 1]
-    X2 = x[q, 2] - x[p, 2]
-    zeta = math.sqrt(X0 * X0 + X1 * X1 + X2 * X2)
     E0 = y[q, 0] - y[p, 0]
     E1 = y[q, 1] - y[p, 1]
     E2 = y[q, 2] - y[p, 2]
@@ -137,6 +140,17 @@ def _hourglass_bond(p, q, x, y, F, c1, delta):
     return M * E0, M * E1, M * E2
 
 
+@njit(cache=True, inline="always", error_model="numpy")
+def _hourglass_bond(p, q, x, y, F, c1, delta):
+    """:func:`hourglass_bond` of bond p→q with ξ = x_q - x_p."""
+    X0 = x[q, 0] - x[p, 0]
+    X1 = x[q, 1] - x[p, 1]
+    X2 = x[q, 2] - x[p, 2]
+    zeta = math.sqrt(X0 * X0 + X1 * X1 + X2 * X2)
+    return hourglass_bond(p, q, X0, X1, X2, zeta, y, F, c1, delta)
+
+
+# not a loop law: sums the incoming bonds' reactions before and after i's own bonds (Peridigm's scatter order), not bond order
 @njit(cache=True, error_model="numpy")
 def hourglass_point(i, offsets, neighbors, in_offsets, in_bonds, sources, x, y, volume, horizon, F, c1, hg):
     """hg_i = Σ_out (M(i→j) η_ij) V_j - Σ_in (M(j→i) η_ji) V_j into row i of hg."""
@@ -171,6 +185,7 @@ def hourglass_point(i, offsets, neighbors, in_offsets, in_bonds, sources, x, y, 
     hg[i, 2] = gz
 
 
+# not a loop law: runs force_point (incoming bonds interleaved with i's own, Peridigm's scatter order)
 @njit(cache=True, parallel=True, error_model="numpy")
 def force_kernel(start, stop, offsets, neighbors, in_offsets, in_bonds, sources, x, volume, horizon, omega_kind, omega_table, A, f):
     """Force density (§6 step 4) of the points [start, stop) into f (n, 3), overwritten:
@@ -186,15 +201,16 @@ def force_kernel(start, stop, offsets, neighbors, in_offsets, in_bonds, sources,
         force_point(i, offsets, neighbors, in_offsets, in_bonds, sources, x, volume, horizon, omega_kind, omega_table, A, f)
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def partial_stress_kernel(start, stop, offsets, neighbors, x, volume, horizon, omega_kind, omega_table, A, S):
+def partial_stress_kernel(start, stop, offsets, neighbors, x, volume, horizon, omega_kind, omega_table, A, S, *, backend=None):
     """Partial_Stress (§6 step 4) of the points [start, stop) into S (n, 9) (M/(L T^2)):
     S_i[a][b] = Σ_{j∈N_i} (T_a ξ_b) V_j over i's own bonds, in list order from 0.0, with T the
-    force state of :func:`force_kernel`. Only i's bonds enter, so the order is Peridigm's."""
-    for i in prange(start, stop):
-        partial_stress_point(i, offsets, neighbors, x, volume, horizon, omega_kind, omega_table, A, S)
+    force state of :func:`force_kernel`. Only i's bonds enter, so the order is Peridigm's.
+    ``PARTIAL_STRESS`` on ``backend`` (None: the default) over the reference positions x."""
+    kernel = (backend or default_backend()).kernel(PARTIAL_STRESS)
+    kernel(start, stop, offsets, neighbors, x, x, (volume, horizon, omega_kind, omega_table, A), S)
 
 
+# not a loop law: runs hourglass_point (incoming bonds interleaved with i's own, Peridigm's scatter order)
 @njit(cache=True, parallel=True, error_model="numpy")
 def hourglass_kernel(start, stop, offsets, neighbors, in_offsets, in_bonds, sources, x, y, volume, horizon, F, bulk_modulus, coefficient, hg):
     """Hourglass_Force_Density (§7) of the points [start, stop) into hg (n, 3), overwritten:

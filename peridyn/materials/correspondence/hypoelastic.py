@@ -27,6 +27,7 @@ from ...core.errors import InputError
 from ...core.fields import FieldSpec, Length, Relation, Temporal
 from ...core.influence import TABLE
 from ...core.interfaces import BlockView, ElasticModuli, Material
+from ...kernels import compiled
 from ..moduli import bulk_and_shear, isotropic_moduli
 from . import hypoelastic_kernels as HK
 from .params import CorrespondenceBaseParams
@@ -181,10 +182,11 @@ class HypoelasticCorrespondence(Material):
         if inf is None or inf.kind != TABLE:
             self.table = EMPTY1
             return
-        nl = block.bonds
-        lengths = np.zeros(int(nl.offsets[block.stop] - nl.offsets[block.start]))
-        HK.deformed_lengths_kernel(block.start, block.stop, nl.offsets, nl.neighbors, block.fields["Coordinates"], lengths)
-        self.table = inf.evaluate(lengths, float(self.params.actual_horizon))
+        s, nl = block.fields, block.bonds
+        lengths = np.zeros(nl.num_bonds)
+        x, y = s["Model_Coordinates"], s["Coordinates"]
+        compiled(block, HK.DEFORMED_LENGTH)(block.start, block.stop, nl.offsets, nl.neighbors, x, y, (), lengths)
+        self.table = inf.evaluate(lengths[int(nl.offsets[block.start]) : int(nl.offsets[block.stop])], float(self.params.actual_horizon))
 
     # -- the Material contract -----------------------------------------------------------------
     def initialize(self, block: BlockView) -> None:
@@ -235,6 +237,7 @@ class HypoelasticCorrespondence(Material):
             lo, hi, nl.offsets, nl.neighbors, s["Coordinates"], s["Velocity"], s["Volume"], s["Horizon"], s.n("Jacobian_Determinant"),
             self._bond_damage(block), kind, self.table, float(block.time_step), s["Gradient_Weight"], s["Velocity_Gradient"],
             s.np1("Jacobian_Determinant"), s["Undamaged_Weighted_Volume"], self._optional(block, "Weighted_Volume", EMPTY1),
+            backend=block.backend, x=s["Model_Coordinates"],
         )
         L = s["Velocity_Gradient"]
         for r, c in enumerate("XYZ"):
@@ -249,14 +252,18 @@ class HypoelasticCorrespondence(Material):
         kind = block.influence.kind if block.influence is not None else 0
         sy, ec, n = self._stress_args()
         eb_N, eb_NP1 = (s.n("Bond_Equivalent_Plastic_Strain"), s.np1("Bond_Equivalent_Plastic_Strain")) if self.plastic else (EMPTY1, EMPTY1)
-        HK.bond_force_kernel(
-            lo, hi, nl.offsets, nl.neighbors, s["Coordinates"], s["Velocity"], s["Volume"], s["Horizon"], s.n("Jacobian_Determinant"),
-            self._bond_damage(block), kind, self.table, dt, s["Velocity_Gradient"], s["Undamaged_Weighted_Volume"], s["Gradient_Weight"],
+        b0 = int(nl.offsets[lo]) if hi > lo else 0
+        N = s["Nonhomogeneous_Integral"] if "Nonhomogeneous_Integral" in s else self._scratch(s.num_points)
+        force = (
+            s["Velocity"], s["Volume"], s["Horizon"], s.n("Jacobian_Determinant"), self._bond_damage(block), kind, self.table, b0, dt,
+            s["Velocity_Gradient"], s["Undamaged_Weighted_Volume"], s["Gradient_Weight"],
             s.n("Bond_Left_Stretch_Tensor"), s.n("Bond_Rotation_Tensor"), s.n("Bond_Unrotated_Cauchy_Stress"), eb_N,
             self.model, self.K, self.G, sy, ec, n,
-            s.np1("Bond_Left_Stretch_Tensor"), s.np1("Bond_Rotation_Tensor"), s.np1("Bond_Unrotated_Cauchy_Stress"), eb_NP1,
-            self._optional(block, "Nonhomogeneous_Integral", EMPTY9), T,
+            s.np1("Bond_Left_Stretch_Tensor"), s.np1("Bond_Rotation_Tensor"), s.np1("Bond_Unrotated_Cauchy_Stress"), eb_NP1, N,
         )
+        x, y = s["Model_Coordinates"], s["Coordinates"]
+        compiled(block, HK.BOND_STRESS)(lo, hi, nl.offsets, nl.neighbors, x, y, force, N)
+        compiled(block, HK.BOND_FORCE)(lo, hi, nl.offsets, nl.neighbors, x, y, force, T)
         # node level: outputs only (the force never reads them)
         gl = "Green_Lagrange_Strain" in s
         e_N, e_NP1 = (s.n("Equivalent_Plastic_Strain"), s.np1("Equivalent_Plastic_Strain")) if self.plastic else (EMPTY1, EMPTY1)
@@ -323,6 +330,13 @@ class HypoelasticCorrespondence(Material):
         if d is None or d.shape[0] != n:
             d = self._d = np.zeros((n, 9))
         return d
+
+    def _scratch(self, n: int) -> np.ndarray:
+        """(n, 9) scratch for the non-homogeneity integrals when Nonhomogeneous_Integral is not output."""
+        N = getattr(self, "_N", None)
+        if N is None or N.shape[0] != n:
+            N = self._N = np.zeros((n, 9))
+        return N
 
 
 class ElasticHypoelasticCorrespondence(HypoelasticCorrespondence):

@@ -1,5 +1,15 @@
 """Numerical core of Peridigm's hypoelastic correspondence family (PERIDIGM_CORRESPONDENCE.md §8,
-§5.2/§5.3/§5.6 at node and bond level), one point per ``prange`` iteration, gather only.
+§5.2/§5.3/§5.6 at node and bond level), gather only.
+
+Loops: the bond loops are loop laws (:mod:`peridyn.core.traversal`) run on the current positions
+by the block's backend: ``MOMENT`` and ``GRADIENT`` (§8.3, two :class:`PointSum` passes with the
+pseudo-inverse between them), ``DEFORMED_LENGTH`` (a :class:`BondMap`), ``BOND_STRESS`` (a
+:class:`PointSum` of the non-homogeneity integral whose terms update each bond's state) and
+``BOND_FORCE`` (a :class:`BondMap` of width 3); the node level (``node_kernel``) has no bond loop.
+The per-point helpers with their own bond loops (:func:`precompute_point`,
+:func:`bond_force_point`) serve the tangent's probes (:mod:`.fd_tangent_rate`), which run one
+family inside a parallel iteration; they do the laws' arithmetic through the same bond helpers
+(``moment_bond``, ``gradient_bond``, ``bond_stress``, ``bond_force``), inlined into both.
 
 Eulerian formulation: every evaluation builds the gradient weights on the current configuration
 (bond vector η = y_j - y_i, deformed length l = sqrt((ηx ηx + ηy ηy) + ηz ηz)), with volumes
@@ -33,6 +43,8 @@ import numpy as np
 from numba import njit, prange
 
 from ...core.influence import omega
+from ...core.traversal import BondMap, PointSum
+from ...kernels import default_backend
 from .stress import (
     _deviator,
     _dot9,
@@ -42,7 +54,7 @@ from .stress import (
     _strain_increment,
     _trial_stress,
 )
-from .tensor import flanagan_taylor, load9, matmul, matmul_nt, matmul_tn, store9
+from .tensor import ZERO, flanagan_taylor, load9, matmul, matmul_nt, matmul_tn, store9
 
 SQRT_2_3 = math.sqrt(2.0 / 3.0)
 SQRT_6 = math.sqrt(6.0)
@@ -320,6 +332,82 @@ def _bond(i, j, y):
     return e0, e1, e2, math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
 
 
+# The precompute's bond physics, shared by the loop laws and the per-point helper of the tangent's
+# probes (arrays as arguments: a law's function unpacks its args and calls them; inlined).
+@njit(cache=True, inline="always", error_model="numpy")
+def moment_bond(i, j, b, e0, e1, e2, length, volume, horizon, J_N, bond_damage, omega_kind, omega_table, b0):
+    """Bond i→j's terms of the weighted volume, ((1 - d) ω) V'_j, and of the moment matrix,
+    M_ab = (temp Q_a) Q_b with temp = (ω (1 - d)) V'_j, Q = η/δ_i, V'_j = J_N,j V_j: 10 numbers."""
+    delta = horizon[i]
+    vj = J_N[j] * volume[j]
+    om = omega(omega_kind, length, delta, omega_table, b - b0)
+    d = _damage(bond_damage, b)
+    temp = (om * (1.0 - d)) * vj
+    q0 = e0 / delta
+    q1 = e1 / delta
+    q2 = e2 / delta
+    return (
+        ((1.0 - d) * om) * vj,
+        (temp * q0) * q0, (temp * q0) * q1, (temp * q0) * q2,
+        (temp * q1) * q0, (temp * q1) * q1, (temp * q1) * q2,
+        (temp * q2) * q0, (temp * q2) * q1, (temp * q2) * q2,
+    )
+
+
+@njit(cache=True, error_model="numpy")
+def moment_point(i, acc, horizon, weighted_volume):
+    """From point i's sums acc = (weighted volume, M row-major): Weighted_Volume[i] = acc[0] (when
+    ``weighted_volume`` is non-empty); returns (1.0 if the SVD did not converge else 0.0, M⁺
+    row-major) with the threshold ((1e-6 δ) δ) δ."""
+    if weighted_volume.shape[0] > 0:
+        weighted_volume[i] = acc[0]
+    M = np.empty(9)
+    for k in range(9):
+        M[k] = acc[k + 1]
+    delta = horizon[i]
+    Mi = np.zeros(9)
+    ok = pseudo_inverse(M, 3, ((1.0e-6 * delta) * delta) * delta, Mi)
+    return (0.0 if ok else 1.0, Mi[0], Mi[1], Mi[2], Mi[3], Mi[4], Mi[5], Mi[6], Mi[7], Mi[8])
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def gradient_bond(i, j, b, e0, e1, e2, length, Mi, v, volume, horizon, J_N, bond_damage, omega_kind, omega_table, b0, phi):
+    """φ of bond i→j from the point's M⁺ (``Mi``, 9 numbers row-major), written to phi[b]
+    (φ_r = Σ_c (((1.0 ω(1-d)) M⁺_rc) Q_c)/δ from 0.0), and the bond's terms of L_i, (Δv_a φ_c) V'_j,
+    and of m0_i, ω V'_j: 10 numbers."""
+    delta = horizon[i]
+    om = omega(omega_kind, length, delta, omega_table, b - b0)
+    temp = 1.0 * (om * (1.0 - _damage(bond_damage, b)))
+    q0 = e0 / delta
+    q1 = e1 / delta
+    q2 = e2 / delta
+    p0 = ((((0.0 + ((temp * Mi[0]) * q0) / delta) + ((temp * Mi[1]) * q1) / delta)) + ((temp * Mi[2]) * q2) / delta)
+    p1 = ((((0.0 + ((temp * Mi[3]) * q0) / delta) + ((temp * Mi[4]) * q1) / delta)) + ((temp * Mi[5]) * q2) / delta)
+    p2 = ((((0.0 + ((temp * Mi[6]) * q0) / delta) + ((temp * Mi[7]) * q1) / delta)) + ((temp * Mi[8]) * q2) / delta)
+    phi[b, 0] = p0
+    phi[b, 1] = p1
+    phi[b, 2] = p2
+    vj = J_N[j] * volume[j]
+    u0 = v[j, 0] - v[i, 0]
+    u1 = v[j, 1] - v[i, 1]
+    u2 = v[j, 2] - v[i, 2]
+    return (
+        (u0 * p0) * vj, (u0 * p1) * vj, (u0 * p2) * vj,
+        (u1 * p0) * vj, (u1 * p1) * vj, (u1 * p2) * vj,
+        (u2 * p0) * vj, (u2 * p1) * vj, (u2 * p2) * vj,
+        om * vj,
+    )
+
+
+@njit(cache=True, error_model="numpy")
+def gradient_point(i, Lt, w0, J_N, dt, L, J_NP1, m0):
+    """L_i (9 numbers) into L[i], J_NP1,i = J_N,i (1.0 + ((L0 + L4) + L8) dt) and m0_i = w0."""
+    store9(L, i, Lt)
+    J_NP1[i] = J_N[i] * (1.0 + ((Lt[0] + Lt[4]) + Lt[8]) * dt)
+    m0[i] = w0
+
+
+# not a loop law: probe helper of fd_tangent_rate (one family inside a parallel iteration); the laws are MOMENT and GRADIENT
 @njit(cache=True, error_model="numpy")
 def precompute_point(i, offsets, neighbors, y, v, volume, horizon, J_N, bond_damage, omega_kind, omega_table, b0, dt,
                      phi, L, J_NP1, m0, weighted_volume):
@@ -327,104 +415,127 @@ def precompute_point(i, offsets, neighbors, y, v, volume, horizon, J_N, bond_dam
     weights φ of i's bonds (order 1: Q = η/δ, M = Σ (ω(1-d) V'_j) Q⊗Q, M⁺ with threshold
     ((1e-6 δ) δ) δ, φ_r = Σ_c (((1.0 ω(1-d)) M⁺_rc) Q_c)/δ), L_i = Σ (Δv ⊗ φ) V'_j, J_NP1 =
     J_N,i (1.0 + ((L0 + L4) + L8) dt) and the Undamaged_Weighted_Volume m0_i = Σ ω V'_j.
-    Returns 1 when the SVD did not converge (Peridigm goes on), else 0."""
-    delta = horizon[i]
+    Returns 1 when the SVD did not converge (Peridigm goes on), else 0. The arithmetic of
+    ``MOMENT`` and ``GRADIENT`` (the same helpers)."""
     lo = offsets[i]
     hi = offsets[i + 1]
-    wv = 0.0
-    M = np.zeros(9)
+    W0 = W1 = W2 = W3 = W4 = W5 = W6 = W7 = W8 = W9 = 0.0
     for b in range(lo, hi):
         j = neighbors[b]
         e0, e1, e2, length = _bond(i, j, y)
-        vj = J_N[j] * volume[j]
-        om = omega(omega_kind, length, delta, omega_table, b - b0)
-        d = _damage(bond_damage, b)
-        wv += ((1.0 - d) * om) * vj
-        temp = (om * (1.0 - d)) * vj
-        q0 = e0 / delta
-        q1 = e1 / delta
-        q2 = e2 / delta
-        M[0] += (temp * q0) * q0
-        M[1] += (temp * q0) * q1
-        M[2] += (temp * q0) * q2
-        M[3] += (temp * q1) * q0
-        M[4] += (temp * q1) * q1
-        M[5] += (temp * q1) * q2
-        M[6] += (temp * q2) * q0
-        M[7] += (temp * q2) * q1
-        M[8] += (temp * q2) * q2
-    if weighted_volume.shape[0] > 0:
-        weighted_volume[i] = wv
-    Mi = np.zeros(9)
-    ok = pseudo_inverse(M, 3, ((1.0e-6 * delta) * delta) * delta, Mi)
+        t = moment_bond(i, j, b, e0, e1, e2, length, volume, horizon, J_N, bond_damage, omega_kind, omega_table, b0)
+        W0 += t[0]
+        W1 += t[1]
+        W2 += t[2]
+        W3 += t[3]
+        W4 += t[4]
+        W5 += t[5]
+        W6 += t[6]
+        W7 += t[7]
+        W8 += t[8]
+        W9 += t[9]
+    r = moment_point(i, (W0, W1, W2, W3, W4, W5, W6, W7, W8, W9), horizon, weighted_volume)
+    Mi = (r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8], r[9])
     L0 = L1 = L2 = L3 = L4 = L5 = L6 = L7 = L8 = 0.0
     w0 = 0.0
-    vi0 = v[i, 0]
-    vi1 = v[i, 1]
-    vi2 = v[i, 2]
     for b in range(lo, hi):
         j = neighbors[b]
         e0, e1, e2, length = _bond(i, j, y)
-        om = omega(omega_kind, length, delta, omega_table, b - b0)
-        temp = 1.0 * (om * (1.0 - _damage(bond_damage, b)))
-        q0 = e0 / delta
-        q1 = e1 / delta
-        q2 = e2 / delta
-        p0 = ((((0.0 + ((temp * Mi[0]) * q0) / delta) + ((temp * Mi[1]) * q1) / delta)) + ((temp * Mi[2]) * q2) / delta)
-        p1 = ((((0.0 + ((temp * Mi[3]) * q0) / delta) + ((temp * Mi[4]) * q1) / delta)) + ((temp * Mi[5]) * q2) / delta)
-        p2 = ((((0.0 + ((temp * Mi[6]) * q0) / delta) + ((temp * Mi[7]) * q1) / delta)) + ((temp * Mi[8]) * q2) / delta)
-        phi[b, 0] = p0
-        phi[b, 1] = p1
-        phi[b, 2] = p2
-        vj = J_N[j] * volume[j]
-        u0 = v[j, 0] - vi0
-        u1 = v[j, 1] - vi1
-        u2 = v[j, 2] - vi2
-        L0 += (u0 * p0) * vj
-        L1 += (u0 * p1) * vj
-        L2 += (u0 * p2) * vj
-        L3 += (u1 * p0) * vj
-        L4 += (u1 * p1) * vj
-        L5 += (u1 * p2) * vj
-        L6 += (u2 * p0) * vj
-        L7 += (u2 * p1) * vj
-        L8 += (u2 * p2) * vj
-        w0 += om * vj
-    store9(L, i, (L0, L1, L2, L3, L4, L5, L6, L7, L8))
-    J_NP1[i] = J_N[i] * (1.0 + ((L0 + L4) + L8) * dt)
-    m0[i] = w0
-    return 0 if ok else 1
+        t = gradient_bond(i, j, b, e0, e1, e2, length, Mi, v, volume, horizon, J_N, bond_damage, omega_kind, omega_table, b0, phi)
+        L0 += t[0]
+        L1 += t[1]
+        L2 += t[2]
+        L3 += t[3]
+        L4 += t[4]
+        L5 += t[5]
+        L6 += t[6]
+        L7 += t[7]
+        L8 += t[8]
+        w0 += t[9]
+    gradient_point(i, (L0, L1, L2, L3, L4, L5, L6, L7, L8), w0, J_N, dt, L, J_NP1, m0)
+    return 0 if r[0] == 0.0 else 1
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def precompute_kernel(start, stop, offsets, neighbors, y, v, volume, horizon, J_N, bond_damage, omega_kind, omega_table, dt,
-                      phi, L, J_NP1, m0, weighted_volume):
-    """§8.3 for the points [start, stop) (see :func:`precompute_point`). Writes φ (nb, 3) of their
-    bonds, L (n, 9), J_NP1 (n,), m0 (n,) and, when non-empty, weighted_volume (n,). Returns the
-    number of points whose SVD did not converge in 30 sweeps per value."""
+def moment_inverse_kernel(start, stop, horizon, W, weighted_volume, Minv):
+    """Between the two passes of §8.3, per point of [start, stop) (no bond loop): from the
+    moment pass's sums W (n, 10) = (weighted volume, M row-major), Weighted_Volume (when
+    ``weighted_volume`` is non-empty) and M⁺ into Minv (n, 9) (:func:`moment_point`). Returns
+    the number of points whose SVD did not converge."""
     bad = np.zeros(max(stop - start, 0), dtype=np.int8)
-    b0 = offsets[start] if stop > start else 0
     for i in prange(start, stop):
-        bad[i - start] = precompute_point(i, offsets, neighbors, y, v, volume, horizon, J_N, bond_damage, omega_kind, omega_table,
-                                          b0, dt, phi, L, J_NP1, m0, weighted_volume)
+        r = moment_point(i, (W[i, 0], W[i, 1], W[i, 2], W[i, 3], W[i, 4], W[i, 5], W[i, 6], W[i, 7], W[i, 8], W[i, 9]), horizon,
+                         weighted_volume)
+        store9(Minv, i, (r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8], r[9]))
+        bad[i - start] = 0 if r[0] == 0.0 else 1
     count = 0
     for k in range(bad.shape[0]):
         count += bad[k]
     return count
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def deformed_lengths_kernel(start, stop, offsets, neighbors, y, out):
-    """l_b = sqrt((ηx ηx + ηy ηy) + ηz ηz) of the bonds of [start, stop) into out[b - offsets[start]]
-    (for expression influence functions, evaluated at the deformed length)."""
-    b0 = offsets[start] if stop > start else 0
-    for i in prange(start, stop):
-        for b in range(offsets[i], offsets[i + 1]):
-            j = neighbors[b]
-            e0 = y[j, 0] - y[i, 0]
-            e1 = y[j, 1] - y[i, 1]
-            e2 = y[j, 2] - y[i, 2]
-            out[b - b0] = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+# Loop laws (peridyn.core.traversal), run on the current positions: the bond context's
+# (ex, ey, ez) = η = y_j - y_i and L = l = |η| (L); |ξ| from the reference positions is not read.
+# args, the same tuple for both passes: (v (n, 3) L/T, volume (n,) L^3, horizon (n,) L, J_N (n,),
+# bond_damage (nb,) or empty, omega_kind, omega_table, b0, dt T, Minv (n, 9) M⁺ per point,
+# phi (nb, 3), L (n, 9) 1/T, J_NP1 (n,), m0 (n,) L^3).
+def moment_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """The bond's terms of the weighted volume and the moment matrix (10 numbers)."""
+    v, volume, horizon, J_N, bond_damage, omega_kind, omega_table, b0 = args[:8]
+    return moment_bond(i, j, b, ex, ey, ez, L, volume, horizon, J_N, bond_damage, omega_kind, omega_table, b0)
+
+
+def gradient_load(i, args):
+    """Point i's M⁺ (9 numbers) from Minv (args[9])."""
+    return load9(args[9], i)
+
+
+def gradient_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """φ of the bond into phi[b]; its terms of L_i and m0_i (10 numbers)."""
+    v, volume, horizon, J_N, bond_damage, omega_kind, omega_table, b0 = args[:8]
+    return gradient_bond(i, j, b, ex, ey, ez, L, p, v, volume, horizon, J_N, bond_damage, omega_kind, omega_table, b0, args[10])
+
+
+def gradient_finish(i, acc, p, args):
+    """L_i, J_NP1,i and m0_i written (:func:`gradient_point`); returns acc."""
+    gradient_point(i, (acc[0], acc[1], acc[2], acc[3], acc[4], acc[5], acc[6], acc[7], acc[8]), acc[9], args[3], args[8], args[11],
+                   args[12], args[13])
+    return acc
+
+
+def deformed_length(i, j, b, ex, ey, ez, L, z, p, args):
+    """l_b = sqrt((ηx ηx + ηy ηy) + ηz ηz) (L)."""
+    return L
+
+
+#: first pass of §8.3: out (n, 10) = (weighted volume, M row-major) per point
+MOMENT = PointSum(moment_term, width=10, z_from_positions=True)
+#: second pass: φ (nb, 3) of the points' bonds, L (n, 9), J_NP1 and m0 written; out (n, 10) scratch
+GRADIENT = PointSum(gradient_term, point=gradient_load, finish=gradient_finish, width=10, z_from_positions=True)
+#: deformed bond lengths (nb,) on current positions, for expression influence functions
+DEFORMED_LENGTH = BondMap(deformed_length, z_from_positions=True)
+
+
+def precompute_kernel(start, stop, offsets, neighbors, y, v, volume, horizon, J_N, bond_damage, omega_kind, omega_table, dt,
+                      phi, L, J_NP1, m0, weighted_volume, *, backend=None, x=None):
+    """§8.3 for the points [start, stop) (see :func:`precompute_point`): ``MOMENT``, the
+    pseudo-inverses (:func:`moment_inverse_kernel`), then ``GRADIENT``, the laws on ``backend``
+    (None: the default) over the current positions y. Writes φ (nb, 3) of their bonds, L (n, 9),
+    J_NP1 (n,), m0 (n,) and, when non-empty, weighted_volume (n,). ``omega_table`` is indexed
+    b - offsets[start]; ``x`` (n, 3) any positions for the laws' unread |ξ| (the reference
+    positions; None: y). Returns the number of points whose SVD did not converge in 30 sweeps
+    per value."""
+    bk = backend or default_backend()
+    x = y if x is None else x
+    b0 = int(offsets[start]) if stop > start else 0
+    n = y.shape[0]
+    W = np.empty((n, 10))
+    Minv = np.empty((n, 9))
+    args = (v, volume, horizon, J_N, bond_damage, omega_kind, omega_table, b0, float(dt), Minv, phi, L, J_NP1, m0)
+    bk.kernel(MOMENT)(start, stop, offsets, neighbors, x, y, args, W)
+    bad = moment_inverse_kernel(start, stop, horizon, W, weighted_volume, Minv)
+    bk.kernel(GRADIENT)(start, stop, offsets, neighbors, x, y, args, W)
+    return int(bad)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -518,6 +629,61 @@ def _projector(e0, e1, e2, lsq):
     return (p0, p1, p2, p1, p4, p5, p2, p5, p8)
 
 
+# The bond level's physics, shared by the loop laws and the per-point helper of the tangent's
+# probes (arrays as arguments: a law's function unpacks its args and calls them; inlined).
+@njit(cache=True, inline="always", error_model="numpy")
+def bond_stress(i, j, b, e0, e1, e2, length, own, v, volume, J_N, bond_damage, omega_kind, omega_table, b0, dt, L, m0,
+                Vb_N, Rb_N, Sb_N, eb_N, prm, Vb_NP1, Rb_NP1, Sb_NP1, eb_NP1):
+    """§8.4 steps 2, 4-7 for bond b = i→j (η = (e0, e1, e2), l = |η|): bond velocity gradient,
+    bond Flanagan-Taylor update, bond stress update (V, R, σ̂ and eqps of NP1 written at [b]);
+    returns the bond's term of the non-homogeneity integral, sc (σ_b P⊥) with
+    σ_b = R_b (σ̂_b R_bᵀ), P⊥ = I - η⊗η/|η|², sc = (ω (0.5/m0_i + 0.5/m0_j)) (J_N,j V_j),
+    ω = (1 - d) ω(l, δ_i), as 9 numbers (zeros where ω <= 0). ``own`` = (L_i, m0_i, δ_i) of point
+    i (:func:`stress_own`), ``prm`` = (model, K, G, σ_y, ε_c, n) of :func:`stress_update`."""
+    Li, m0i, delta = own
+    model, K, G, sy, ec, nexp = prm
+    plastic = eb_N.shape[0] > 0
+    Lb = _bond_velocity_gradient(Li, load9(L, j), e0, e1, e2, length * length, v[j, 0] - v[i, 0], v[j, 1] - v[i, 1], v[j, 2] - v[i, 2])
+    V1, R1, db = flanagan_taylor(Lb, load9(Vb_N, b), load9(Rb_N, b), dt)
+    store9(Vb_NP1, b, V1)
+    store9(Rb_NP1, b, R1)
+    sh, e, _, _, _ = stress_update(model, load9(Sb_N, b), db, eb_N[b] if plastic else 0.0, dt, K, G, sy, ec, nexp, True)
+    store9(Sb_NP1, b, sh)
+    if plastic:
+        eb_NP1[b] = e
+    om = (1.0 - _damage(bond_damage, b)) * omega(omega_kind, length, delta, omega_table, b - b0)
+    if om > 0.0:
+        sig = matmul(R1, matmul_nt(sh, R1))
+        Y = matmul(sig, _projector(e0, e1, e2, (e0 * e0 + e1 * e1) + e2 * e2))
+        sc = (om * (0.5 / m0i + 0.5 / m0[j])) * (J_N[j] * volume[j])
+        return (sc * Y[0], sc * Y[1], sc * Y[2], sc * Y[3], sc * Y[4], sc * Y[5], sc * Y[6], sc * Y[7], sc * Y[8])
+    return ZERO
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def bond_force(i, j, b, e0, e1, e2, length, own, J_N, bond_damage, omega_kind, omega_table, b0, phi, Rb_NP1, Sb_NP1):
+    """§8.4 step 8: T_b = (J_N,i T) J_N,j with T_a = ((ω/m0_i) (σ_b η)_a)/|η|² + (𝒩_i φ_b)_a
+    (force per volume squared; zero where ω <= 0), σ_b from the NP1 bond state; ``own`` =
+    (𝒩_i, m0_i, J_N,i, δ_i) of point i (:func:`force_own`)."""
+    Ni, m0i, Ji, delta = own
+    om = (1.0 - _damage(bond_damage, b)) * omega(omega_kind, length, delta, omega_table, b - b0)
+    if om > 0.0:
+        R1 = load9(Rb_NP1, b)
+        sig = matmul(R1, matmul_nt(load9(Sb_NP1, b), R1))  # the same σ_b as in bond_stress, bit for bit
+        lsq = (e0 * e0 + e1 * e1) + e2 * e2
+        c = om / m0i
+        px = phi[b, 0]
+        py = phi[b, 1]
+        pz = phi[b, 2]
+        tx = ((c * ((sig[0] * e0 + sig[1] * e1) + sig[2] * e2)) / lsq) + ((Ni[0] * px + Ni[1] * py) + Ni[2] * pz)
+        ty = ((c * ((sig[3] * e0 + sig[4] * e1) + sig[5] * e2)) / lsq) + ((Ni[3] * px + Ni[4] * py) + Ni[5] * pz)
+        tz = ((c * ((sig[6] * e0 + sig[7] * e1) + sig[8] * e2)) / lsq) + ((Ni[6] * px + Ni[7] * py) + Ni[8] * pz)
+        Jj = J_N[j]
+        return (Ji * tx) * Jj, (Ji * ty) * Jj, (Ji * tz) * Jj
+    return 0.0, 0.0, 0.0
+
+
+# not a loop law: probe helper of fd_tangent_rate (one family inside a parallel iteration); the laws are BOND_STRESS and BOND_FORCE
 @njit(cache=True, error_model="numpy")
 def bond_force_point(i, offsets, neighbors, y, v, volume, horizon, J_N, bond_damage, omega_kind, omega_table, b0, dt, L, m0, phi,
                      Vb_N, Rb_N, Sb_N, eb_N, model, K, G, sy, ec, nexp, Vb_NP1, Rb_NP1, Sb_NP1, eb_NP1, integral, T):
@@ -525,78 +691,74 @@ def bond_force_point(i, offsets, neighbors, y, v, volume, horizon, J_N, bond_dam
     update, bond stress update, σ_b = R_b (σ̂_b R_bᵀ), the non-homogeneity integral 𝒩_i (into row
     i of ``integral`` when non-empty) and the force states T_b = (J_N,i T) J_N,j with
     T_a = ((ω/m0_i) (σ_b η)_a)/|η|² + (𝒩 φ_b)_a, ω = (1 - d) ω(l, δ) > 0 (T_b = 0 otherwise).
-    ``eb_N``/``eb_NP1`` are empty for the elastic model."""
-    delta = horizon[i]
+    ``eb_N``/``eb_NP1`` are empty for the elastic model. The arithmetic of ``BOND_STRESS`` and
+    ``BOND_FORCE`` (the same helpers)."""
     lo = offsets[i]
     hi = offsets[i + 1]
-    Li = load9(L, i)
-    m0i = m0[i]
-    plastic = eb_N.shape[0] > 0
+    prm = (model, K, G, sy, ec, nexp)
+    own = (load9(L, i), m0[i], horizon[i])
     N0 = N1 = N2 = N3 = N4 = N5 = N6 = N7 = N8 = 0.0
     for b in range(lo, hi):
         j = neighbors[b]
         e0, e1, e2, length = _bond(i, j, y)
-        Lb = _bond_velocity_gradient(Li, load9(L, j), e0, e1, e2, length * length, v[j, 0] - v[i, 0], v[j, 1] - v[i, 1], v[j, 2] - v[i, 2])
-        V1, R1, db = flanagan_taylor(Lb, load9(Vb_N, b), load9(Rb_N, b), dt)
-        store9(Vb_NP1, b, V1)
-        store9(Rb_NP1, b, R1)
-        sh, e, _, _, _ = stress_update(model, load9(Sb_N, b), db, eb_N[b] if plastic else 0.0, dt, K, G, sy, ec, nexp, True)
-        store9(Sb_NP1, b, sh)
-        if plastic:
-            eb_NP1[b] = e
-        om = (1.0 - _damage(bond_damage, b)) * omega(omega_kind, length, delta, omega_table, b - b0)
-        if om > 0.0:
-            sig = matmul(R1, matmul_nt(sh, R1))
-            Y = matmul(sig, _projector(e0, e1, e2, (e0 * e0 + e1 * e1) + e2 * e2))
-            sc = (om * (0.5 / m0i + 0.5 / m0[j])) * (J_N[j] * volume[j])
-            N0 += sc * Y[0]
-            N1 += sc * Y[1]
-            N2 += sc * Y[2]
-            N3 += sc * Y[3]
-            N4 += sc * Y[4]
-            N5 += sc * Y[5]
-            N6 += sc * Y[6]
-            N7 += sc * Y[7]
-            N8 += sc * Y[8]
+        t = bond_stress(i, j, b, e0, e1, e2, length, own, v, volume, J_N, bond_damage, omega_kind, omega_table, b0, dt, L, m0,
+                        Vb_N, Rb_N, Sb_N, eb_N, prm, Vb_NP1, Rb_NP1, Sb_NP1, eb_NP1)
+        N0 += t[0]
+        N1 += t[1]
+        N2 += t[2]
+        N3 += t[3]
+        N4 += t[4]
+        N5 += t[5]
+        N6 += t[6]
+        N7 += t[7]
+        N8 += t[8]
+    Ni = (N0, N1, N2, N3, N4, N5, N6, N7, N8)
     if integral.shape[0] > 0:
-        store9(integral, i, (N0, N1, N2, N3, N4, N5, N6, N7, N8))
-    Ji = J_N[i]
+        store9(integral, i, Ni)
+    own = (Ni, m0[i], J_N[i], horizon[i])
     for b in range(lo, hi):
         j = neighbors[b]
         e0, e1, e2, length = _bond(i, j, y)
-        om = (1.0 - _damage(bond_damage, b)) * omega(omega_kind, length, delta, omega_table, b - b0)
-        if om > 0.0:
-            R1 = load9(Rb_NP1, b)
-            sig = matmul(R1, matmul_nt(load9(Sb_NP1, b), R1))  # the same σ_b as above, bit for bit
-            lsq = (e0 * e0 + e1 * e1) + e2 * e2
-            c = om / m0i
-            px = phi[b, 0]
-            py = phi[b, 1]
-            pz = phi[b, 2]
-            tx = ((c * ((sig[0] * e0 + sig[1] * e1) + sig[2] * e2)) / lsq) + ((N0 * px + N1 * py) + N2 * pz)
-            ty = ((c * ((sig[3] * e0 + sig[4] * e1) + sig[5] * e2)) / lsq) + ((N3 * px + N4 * py) + N5 * pz)
-            tz = ((c * ((sig[6] * e0 + sig[7] * e1) + sig[8] * e2)) / lsq) + ((N6 * px + N7 * py) + N8 * pz)
-            Jj = J_N[j]
-            T[b, 0] = (Ji * tx) * Jj
-            T[b, 1] = (Ji * ty) * Jj
-            T[b, 2] = (Ji * tz) * Jj
-        else:
-            T[b, 0] = 0.0
-            T[b, 1] = 0.0
-            T[b, 2] = 0.0
+        T[b, 0], T[b, 1], T[b, 2] = bond_force(i, j, b, e0, e1, e2, length, own, J_N, bond_damage, omega_kind, omega_table, b0, phi,
+                                               Rb_NP1, Sb_NP1)
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def bond_force_kernel(start, stop, offsets, neighbors, y, v, volume, horizon, J_N, bond_damage, omega_kind, omega_table, dt, L, m0, phi,
-                      Vb_N, Rb_N, Sb_N, eb_N, model, K, G, sy, ec, nexp, Vb_NP1, Rb_NP1, Sb_NP1, eb_NP1, integral, T):
-    """§8.4 bond level for the points [start, stop) (see :func:`bond_force_point`): reads L, m0,
-    J_N, volume, velocities and positions of the neighbors (ghosts included), writes the NP1 bond
-    state of the points' own bonds and their force states T (nb, 3). The engine gathers
-    f_i = Σ_out T_b V_j - Σ_in T_b V_i, i.e. Peridigm's f_i += (J_i T)(J_j V_j), f_j -= (J_j T)(J_i V_i)."""
-    b0 = offsets[start] if stop > start else 0
-    for i in prange(start, stop):
-        bond_force_point(i, offsets, neighbors, y, v, volume, horizon, J_N, bond_damage, omega_kind, omega_table, b0, dt, L, m0, phi,
-                         Vb_N, Rb_N, Sb_N, eb_N, model, K, G, sy, ec, nexp, Vb_NP1, Rb_NP1, Sb_NP1, eb_NP1, integral, T)
+# Loop laws (peridyn.core.traversal), run on the current positions: the bond context's
+# (ex, ey, ez) = η = y_j - y_i and L = l = |η| (L); |ξ| from the reference positions is not read.
+# args, the same tuple for both passes: (v (n, 3) L/T, volume (n,) L^3, horizon (n,) L, J_N (n,),
+# bond_damage (nb,) or empty, omega_kind, omega_table, b0, dt T, L (n, 9) 1/T, m0 (n,) L^3, phi (nb, 3), Vb_N, Rb_N, Sb_N
+# (nb, 9), eb_N (nb,) or empty, model, K, G, sy, ec, nexp, Vb_NP1, Rb_NP1, Sb_NP1 (nb, 9), eb_NP1
+# (nb,) or empty, N (n, 9) the first pass's output, the non-homogeneity integrals); flat (a tuple of
+# numbers inside args is no parallel kernel argument).
+def stress_own(i, args):
+    """(L_i, m0_i, δ_i) of point i."""
+    return load9(args[9], i), args[10][i], args[2][i]
+
+
+def bond_stress_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """The bond's NP1 state written; its term of 𝒩_i (9 numbers, :func:`bond_stress`), p = (L_i, m0_i, δ_i)."""
+    (v, volume, horizon, J_N, bond_damage, omega_kind, omega_table, b0, dt, Lg, m0, phi, Vb_N, Rb_N, Sb_N, eb_N,
+     model, K, G, sy, ec, nexp, Vb_NP1, Rb_NP1, Sb_NP1, eb_NP1, N) = args
+    return bond_stress(i, j, b, ex, ey, ez, L, p, v, volume, J_N, bond_damage, omega_kind, omega_table, b0, dt, Lg, m0,
+                       Vb_N, Rb_N, Sb_N, eb_N, (model, K, G, sy, ec, nexp), Vb_NP1, Rb_NP1, Sb_NP1, eb_NP1)
+
+
+def force_own(i, args):
+    """(𝒩_i from the first pass's output args[26], m0_i, J_N,i, δ_i) of point i."""
+    return load9(args[26], i), args[10][i], args[3][i], args[2][i]
+
+
+def bond_force_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """T_b (3 numbers, :func:`bond_force`), p = (𝒩_i, m0_i, J_N,i, δ_i)."""
+    (v, volume, horizon, J_N, bond_damage, omega_kind, omega_table, b0, dt, Lg, m0, phi, Vb_N, Rb_N, Sb_N, eb_N,
+     model, K, G, sy, ec, nexp, Vb_NP1, Rb_NP1, Sb_NP1, eb_NP1, N) = args
+    return bond_force(i, j, b, ex, ey, ez, L, p, J_N, bond_damage, omega_kind, omega_table, b0, phi, Rb_NP1, Sb_NP1)
+
+
+#: §8.4 steps 2, 4-7: the NP1 bond states written, out (n, 9) = 𝒩_i (Nonhomogeneous_Integral)
+BOND_STRESS = PointSum(bond_stress_term, point=stress_own, width=9, z_from_positions=True)
+#: §8.4 step 8: out (nb, 3) = T of the points' bonds, from 𝒩 (args[26]) of the first pass
+BOND_FORCE = BondMap(bond_force_term, point=force_own, width=3, z_from_positions=True)
 
 
 # ------------------------------------------------------------------------------------------------
