@@ -193,8 +193,8 @@ def loop_body(law: Law, indent: str) -> str:
 
 
 def point_loop(law: Law, loop: str) -> str:
-    """The whole kernel body: ``loop`` is the point loop header (``for i in prange(start, stop):``
-    on CPU threads)."""
+    """The body of one point's row under the statement ``loop`` (a point loop header such as
+    ``for i in prange(start, stop):``, or ``if True:`` for a row function of ``i``)."""
     pre = ["p = point(i, args)" if law.point is not None else "p = 0.0"]
     if isinstance(law, PointSum) and law.width == 1:
         pre.append("acc = 0.0")

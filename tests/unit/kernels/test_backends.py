@@ -188,5 +188,5 @@ def test_law_functions_are_compiled_without_reference_counting_unless_they_alloc
     from dataclasses import replace
 
     text = NumbaBackend().source(laws.SUM)
-    assert text.count("_nrt=False") == len(codegen.law_functions(laws.SUM))
+    assert text.count("_nrt=False, inline=\"always\")") == len(codegen.law_functions(laws.SUM))
     assert "_nrt=False" not in NumbaBackend().source(replace(laws.SUM, allocates=True))
