@@ -16,7 +16,7 @@ from numba import njit
 
 @njit(cache=True)
 def local_vector_force_kernel(i, offsets, neighbors, volume, T, out):
-    """``local_force_kernel`` for vector force states T (nb, 3) of i's bonds: f_i = sum T_b V_j,
+    """``local_scalar_state_force_kernel`` for vector force states T (nb, 3) of i's bonds: f_i = sum T_b V_j,
     f_j = -T_b V_i on S_i = [N_i..., i]."""
     o = offsets[i]
     ns = offsets[i + 1] - o + 1
@@ -43,7 +43,7 @@ def local_vector_force_kernel(i, offsets, neighbors, volume, T, out):
 def local_scalar_state_force_kernel(i, offsets, neighbors, y, volume, t, out):
     """Force density of point i's bonds on S_i = [N_i..., i] (out (3 (|N_i| + 1),)) from the
     local scalar force states t[b - offsets[i]] (zero-length bonds carry none): the
-    finite-difference probes of the deviatoric materials and of Pals."""
+    finite-difference probes of the deviatoric materials, of Pals and of the solvers' tangent."""
     o = offsets[i]
     ns = offsets[i + 1] - o + 1
     for k in range(3 * ns):

@@ -390,7 +390,7 @@ def point_force_state(i, offsets, neighbors, zeta, y, W, Sg, theta_i, p_i, two_m
 @njit(cache=True, error_model="numpy")
 def _probe(i, offsets, neighbors, zeta, y, volume, W, Sg, m, K, two_mu, bond_damage, t, F):
     """Force density of point i's bonds on S_i = [N_i..., i] (F (3 |S_i|,), the solvers'
-    ``local_force_kernel`` arithmetic) with theta_i, p_i re-evaluated at the current y."""
+    ``local_scalar_state_force_kernel`` arithmetic) with theta_i, p_i re-evaluated at the current y."""
     th, pp = point_theta_p(i, offsets, neighbors, zeta, y, volume, W, Sg, m[i], K, two_mu, bond_damage)
     point_force_state(i, offsets, neighbors, zeta, y, W, Sg, th, pp, two_mu, bond_damage, t, 0)
     local_scalar_state_force_kernel(i, offsets, neighbors, y, volume, t, F)

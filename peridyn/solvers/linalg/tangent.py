@@ -41,14 +41,12 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import math
 import time as _time
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
-from ...core.assembly import local_vector_force_kernel, scatter_local_kernel
+from ...core.assembly import local_scalar_state_force_kernel, local_vector_force_kernel, scatter_local_kernel
 from .bsr import PointBlockMatrix
 
 log = logging.getLogger("peridyn.solver")
@@ -87,39 +85,6 @@ class TangentTarget:
 # ------------------------------------------------------------------------------------------------
 # kernels
 # ------------------------------------------------------------------------------------------------
-@njit(cache=True)
-def local_force_kernel(i, offsets, neighbors, y, volume, t, out):
-    """Force density of point i's bonds only, on S_i = [N_i..., i]: out (3 (|N_i| + 1),), zeroed
-    here (M L^-2 T^-2). t: scalar force states (only i's bonds are read)."""
-    o = offsets[i]
-    ns = offsets[i + 1] - o + 1
-    for k in range(3 * ns):
-        out[k] = 0.0
-    fx = 0.0
-    fy = 0.0
-    fz = 0.0
-    Vi = volume[i]
-    for b in range(o, offsets[i + 1]):
-        j = neighbors[b]
-        ex = y[j, 0] - y[i, 0]
-        ey = y[j, 1] - y[i, 1]
-        ez = y[j, 2] - y[i, 2]
-        L = math.sqrt(ex * ex + ey * ey + ez * ez)
-        if L > 0.0:
-            s = t[b] / L
-            k = 3 * (b - o)
-            out[k] -= s * ex * Vi
-            out[k + 1] -= s * ey * Vi
-            out[k + 2] -= s * ez * Vi
-            fx += s * ex * volume[j]
-            fy += s * ey * volume[j]
-            fz += s * ez * volume[j]
-    k = 3 * (ns - 1)
-    out[k] = fx
-    out[k + 1] = fy
-    out[k + 2] = fz
-
-
 # ------------------------------------------------------------------------------------------------
 class TangentMatrix(PointBlockMatrix):
     """K = d(f V)/dy of the owned points (serial: all points), 3x3-block sparse, rows in
@@ -217,8 +182,8 @@ class TangentMatrix(PointBlockMatrix):
         def local(out):
             if vector:
                 local_vector_force_kernel(i, nl.offsets, nl.neighbors, volume, t, out)
-            else:
-                local_force_kernel(i, nl.offsets, nl.neighbors, y, volume, t, out)
+            else:  # i's own force states only: t[o:e]
+                local_scalar_state_force_kernel(i, nl.offsets, nl.neighbors, y, volume, t[o:e], out)
         pts = np.arange(blk.start, blk.stop)
         pts = pts[np.argsort(self.eval_rank[pts], kind="stable")]
         for i in pts:
