@@ -51,7 +51,7 @@ def cmd_run(args) -> int:
     check_output_names(deck, output_dir)
     locks = lock_outputs(deck, output_dir)  # a second run of the deck in this folder is refused here
     try:
-        sim = Simulation(deck, comm=comm, output_dir=output_dir, progress=not args.no_progress, backend=args.backend)
+        sim = Simulation(deck, comm=comm, output_dir=output_dir, progress=not args.no_progress, backend=args.backend, device=args.device)
         _log_setup(sim)
         try:
             sim.run_solvers()
@@ -119,7 +119,7 @@ def _run_parallel_locked(args, comm, output_dir: Path, wall0: float, locks: list
         deck = _agree_on_input(comm, lambda: load_deck(args.deck))
         _agree_on_input(comm, lambda: check_output_names(deck, output_dir))
         locks.extend(_agree_on_input(comm, lambda: lock_outputs(deck, output_dir) if comm.rank == 0 else []))
-        sim = _agree_on_input(comm, lambda: Simulation(deck, comm=comm, output_dir=output_dir, progress=not args.no_progress and comm.rank == 0, backend=args.backend))
+        sim = _agree_on_input(comm, lambda: Simulation(deck, comm=comm, output_dir=output_dir, progress=not args.no_progress and comm.rank == 0, backend=args.backend, device=args.device))
     except _ReportedInputError:
         return ExitCode.INPUT_ERROR
     except Exception as exc:  # a failure on one rank must not leave the others waiting
@@ -194,6 +194,9 @@ def _log_summary(sim, wall: float) -> None:
                 100 * abs(e["balance_error"]) / scale,
                 100 * e["max_relative_error"],
             )
+        if st.get("device") == "gpu":
+            log.info("  device: gpu, fields and bonds %.0f bytes per point on the device, copied there in %.2f s",
+                     st["device_bytes_per_point"], st["device_setup"])
         c = st.get("contact")
         if c:
             _log_contact(c, steps)
@@ -257,11 +260,13 @@ def cmd_check(args) -> int:
 
     deck = load_deck(args.deck)
     check_output_names(deck, Path.cwd())
-    sim = Simulation(deck, output_dir=Path.cwd(), progress=False, write_files=False)  # a check writes nothing
+    sim = Simulation(deck, output_dir=Path.cwd(), progress=False, write_files=False, device=args.device)  # a check writes nothing
     nl = sim.bonds
     counts = nl.counts()
     vol = sim.fields["Volume"]
     print(f"{deck.file}: valid")
+    if sim.device == "gpu":
+        print("  device: gpu (every model, condition and solver of the deck has a GPU path)")
     print(f"  discretization: {deck.discretization.type}, {sim.num_global} points, {nl.num_bonds} bonds")
     if counts.size:
         print(f"  neighbors per point: min {counts.min()}, mean {counts.mean():.1f}, max {counts.max()}")
@@ -375,12 +380,14 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("deck")
     r.add_argument("--output-dir", help="where output files go (default: the current folder)")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
-    r.add_argument("--backend", help="where arrays live and bond loops run: numba (CPU threads, the default), numba-serial, or a plugin's (default: PERIDYN_BACKEND)")
+    r.add_argument("--backend", help="where arrays live and bond loops run: numba (CPU threads, the default), numba-serial, cuda (the GPU), or a plugin's (default: PERIDYN_BACKEND)")
+    r.add_argument("--device", choices=("cpu", "gpu"), type=str.lower, help="run explicit solvers on one NVIDIA GPU (needs peridyn[gpu]) or the CPU; wins over the solver's Device (default: cpu)")
     common(r)
     r.set_defaults(func=cmd_run)
 
     c = sub.add_parser("check", help="validate a deck and describe the model without running it")
     c.add_argument("deck")
+    c.add_argument("--device", choices=("cpu", "gpu"), type=str.lower, help="also check that every part of the deck runs on that device")
     common(c)
     c.set_defaults(func=cmd_check)
 

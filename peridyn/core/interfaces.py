@@ -202,6 +202,10 @@ class Material(ABC):
     #: every closed view. The engine may then call them on parts of a block: under MPI, first
     #: on the rows without ghost neighbors while the ghosts' values are on their way.
     row_local: ClassVar[bool] = False
+    #: where the model computes: "cpu" (the numba backends), and "gpu" when every method the
+    #: explicit step calls (``precompute``, ``force_fused``, ``stored_energy_density``) passes
+    #: only its view's arrays to compiled loop laws, so the GPU backend runs them on device arrays
+    devices: ClassVar[frozenset[str]] = frozenset({"cpu"})
 
     def __init__(self, params: ModelParams, *, horizon: float | None, options: dict[str, Any] | None = None) -> None:
         self.params = params
@@ -295,6 +299,9 @@ class DamageModel(ABC):
     #: True promises that ``update`` writes only the view's rows and their bonds and reads of
     #: other points only their positions (see Material.row_local)
     row_local: ClassVar[bool] = False
+    #: where ``update`` runs: "cpu", and "gpu" when it only passes its view's arrays to compiled
+    #: loop laws (see Material.devices); ``initialize`` always runs on the CPU
+    devices: ClassVar[frozenset[str]] = frozenset({"cpu"})
 
     def __init__(self, params: ModelParams, *, options: dict[str, Any] | None = None) -> None:
         self.params = params
@@ -377,6 +384,8 @@ class Simulation(Protocol):
     precompute_fields: list[str]  #: fields materials precompute and the halo carries before forces
     conditions: list[Any]  #: boundary and initial conditions bound to this rank's points, deck order
     kinematic: list[Any]  #: the conditions applied before a step (prescribed displacement, temperature, pressure)
+    force_conditions: list[Any]  #: the conditions that set External_Force_Density (body forces)
+    data_loader: Any | None  #: the deck's data loader (fields read from files over time), None without one
     outputs: Any  #: the output manager (``variables``: name -> variable of every output)
     contact: Any | None  #: the contact manager, None without a Contact section
     interfaces: Any | None  #: block interfaces (``Construct Interfaces``), None otherwise
@@ -385,6 +394,8 @@ class Simulation(Protocol):
     progress: bool  #: whether solvers show progress
     timers: dict[str, float]  #: wall-time sections (s) for the summary
     backend: Backend  #: where arrays live and bond loops run
+    device: str  #: "cpu", or "gpu" for an explicit run on one GPU (``--device``, the solver's ``Device``)
+    device_backend: Backend | None  #: the GPU backend of a "gpu" run (set-up stays on ``backend``), else None
     time_step: float  #: the current step of the solver running (T)
     overlap: bool  #: MPI: rows without ghost neighbors computed while halo messages travel
     solver_cache: dict[str, Any]  #: what solver sections share (e.g. the implicit tangents' storage)
@@ -417,6 +428,9 @@ class Simulation(Protocol):
 
     def begin_step(self, time: float) -> None:
         """Start of a step at ``time``: models that change with time (damage laws of t) update."""
+
+    def plan_solvers(self) -> list[tuple[Any, int | None, float | None]]:
+        """The deck's solvers in order: (solver, planned steps, estimated seconds)."""
 
     def set_time_step(self, dt: float) -> None:
         """The step the running solver takes (T); rate-form models read it from their views."""
@@ -508,6 +522,8 @@ class ContactModel(ABC):
 
     name: ClassVar[str]
     Params: ClassVar[type[ModelParams]]
+    #: where the contact force is computed: "cpu" (see Material.devices)
+    devices: ClassVar[frozenset[str]] = frozenset({"cpu"})
 
     def __init__(self, params: ModelParams, *, options: dict[str, Any] | None = None) -> None:
         self.params = params

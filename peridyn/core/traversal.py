@@ -84,7 +84,20 @@ class PairForce:
     allocates: bool = False
 
 
-Law = PointSum | BondMap | PairForce
+@dataclass(frozen=True)
+class PointMap:
+    """``out[i] = point(i, args)`` for every point, no bonds: per-point coefficients computed
+    where the arrays live (``out`` (n,), or (n, w) when ``width`` w > 1 and the function returns
+    a w-tuple). The kernel takes the common signature; ``offsets``, ``neighbors``, ``zeta`` and
+    ``y`` are not read."""
+
+    point: Callable
+    width: int = 1
+    z_from_positions: bool = False
+    allocates: bool = False
+
+
+Law = PointSum | BondMap | PairForce | PointMap
 
 
 class Backend(ABC):
@@ -100,6 +113,9 @@ class Backend(ABC):
     name: ClassVar[str]
     #: one line for ``peridyn plugins`` and the run's log
     description: ClassVar[str] = ""
+    #: where the arrays live: "cpu" (numpy arrays, which host-side helper kernels may also read)
+    #: or "gpu" (device arrays: only this backend's kernels touch them)
+    device: ClassVar[str] = "cpu"
 
     @abstractmethod
     def kernel(self, law: Law) -> Callable[..., Any]:
@@ -114,6 +130,15 @@ class Backend(ABC):
     def asarray(self, array: Any) -> Any:
         """``array`` where this backend's kernels read it (no copy when it already is)."""
         return array
+
+    def empty(self, dtype: Any = float) -> Any:
+        """A zero-length array ("feature off" in a law's ``args``) where the kernels read it."""
+        return self.zeros(0, dtype)
+
+    def resident(self, array: Any) -> Any:
+        """``array`` (constant data of a model: an influence table, say) where the kernels read
+        it, copied there once per backend and array."""
+        return self.asarray(array)
 
     def to_host(self, array: Any) -> Any:
         """A numpy view or copy of a backend array (output, reductions, checks)."""

@@ -17,7 +17,7 @@ from ..core.fields import FieldSpec, Relation
 from ..core.interfaces import BlockView, DamageModel
 from ..core.params import ModelParams
 from ..core.traversal import PointSum
-from ..kernels import compiled
+from ..kernels import compiled, empty
 
 EMPTY = np.zeros(0)
 
@@ -75,6 +75,7 @@ class CriticalStretch(DamageModel):
     Params = CriticalStretchParams
     bond_damage_dtype = "uint8"  # bonds are whole or broken: one byte per bond
     row_local = True
+    devices = frozenset({"cpu", "gpu"})
     #: copy bond damage N into NP1 before each update (Peridigm's intent; see the time-dependent variant)
     copy_previous = True
 
@@ -110,7 +111,7 @@ class CriticalStretch(DamageModel):
 
     def update(self, block: BlockView) -> None:
         s, nl = block.fields, block.bonds
-        dT = s["Temperature_Change"] if self.alpha_T is not None else EMPTY
+        dT = s["Temperature_Change"] if self.alpha_T is not None else empty(block)
         args = (self.s_c, s.n("Bond_Damage"), s["Bond_Damage"], self.copy_previous, dT, float(self.alpha_T or 0.0), s["Damage"], nl.offsets)
         compiled(block, CRITICAL_STRETCH)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, s["Damage"])
 

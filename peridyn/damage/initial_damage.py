@@ -23,6 +23,7 @@ class InitialDamage(DamageModel):
     Params = InitialDamageParams
     bond_damage_dtype = "uint8"
     row_local = True
+    devices = frozenset({"cpu", "gpu"})
 
     def initialize(self, block: BlockView) -> None:
         from ..geometry.bond_filters import flag_bonds, make_filter

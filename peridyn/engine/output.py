@@ -356,6 +356,11 @@ class OutputManager:
         for w in self.writers:
             w.write(t)
 
+    def due_next(self) -> bool:
+        """Whether the next ``write`` writes a frame in some file (a GPU run copies its fields
+        back only then)."""
+        return any(w.due_next() for w in self.writers)
+
     def close(self, complete: bool = True) -> None:
         """Close every file. ``complete``: the run ended or was stopped on purpose (finished, or
         unstable): each file takes its final name. Otherwise (an error, an interrupt) the new
@@ -436,9 +441,12 @@ class OutputWriter:
         self.element = [(v, c, k) for v in self.vars if v.kind == "element" for k, c in enumerate(component_names(v.spec, v.name))]
         self.glob = [(v, c, k) for v in self.vars if v.kind == "global" for k, c in enumerate(component_names(v.spec, v.name))]
 
-    def due(self) -> bool:
-        k = self.count
+    def due(self, k: int | None = None) -> bool:
+        k = self.count if k is None else k
         return self.frequency > 0 and (k - 1) % self.frequency == 0 and self.initial <= k <= self.final + 1
+
+    def due_next(self) -> bool:
+        return self.due(self.count + 1)
 
     def write(self, t: float) -> None:
         self.count += 1

@@ -47,10 +47,21 @@ class Simulation:
     """
 
     def __init__(self, deck: Deck, *, comm=None, output_dir: str | Path | None = None, progress: bool = True,
-                 write_files: bool = True, backend: str | None = None) -> None:
+                 write_files: bool = True, backend: str | None = None, device: str | None = None) -> None:
         self.deck = deck
-        #: where arrays live and bond loops run (``peridyn run --backend``, ``PERIDYN_BACKEND``)
-        self.backend = select_backend(backend)
+        #: "cpu", or "gpu": explicit solvers run on one GPU (``--device``, else the solver's ``Device``)
+        self.device_backend = None
+        try:
+            self.device, gpu_backend = resolve_device(deck, device, backend)
+            #: where arrays live and bond loops run (``peridyn run --backend``, ``PERIDYN_BACKEND``); set-up runs here
+            self.backend = select_backend(None if gpu_backend else backend)
+            if self.device == "gpu" and write_files:  # ``peridyn check --device gpu`` needs no GPU
+                from ..kernels.numba_cuda import require_gpu
+
+                require_gpu()
+                self.device_backend = select_backend(gpu_backend or "cuda")
+        except InputError as exc:
+            raise exc.in_file(deck.file) from None
         self.comm = comm or SerialComm()
         self.output_dir = Path(output_dir) if output_dir is not None else Path.cwd()
         #: False for ``peridyn check``: set-up creates no file (no Interfaces.e)
@@ -80,6 +91,10 @@ class Simulation:
                 self._setup()
         except InputError as exc:  # every message names a file
             raise exc.in_file(deck.file) from None
+        if self.device == "gpu":
+            from ..gpu.support import check_gpu
+
+            check_gpu(self)
         self.timers["setup"] = _time.perf_counter() - t0
 
     # ============================================================================================
@@ -670,6 +685,35 @@ class Simulation:
         if self.bond_force_vector is not None:
             total += self.bond_force_vector.nbytes
         return total
+
+
+def resolve_device(deck: Deck, device: str | None, backend: str | None) -> tuple[str, str | None]:
+    """("cpu" or "gpu", the GPU backend's name or None): ``--device`` wins over the solver
+    sections' ``Device``; a ``--backend`` whose arrays live on a GPU means ``--device gpu``."""
+    gpu_backend = None
+    if backend is not None:
+        from ..plugins.manager import get_registry
+
+        cls = get_registry().get("backend", backend, path=("--backend",))
+        if getattr(cls, "device", "cpu") == "gpu":
+            gpu_backend = backend
+    if device is not None:
+        device = device.lower()
+        if device not in ("cpu", "gpu"):
+            raise InputError(f"--device {device!r} is not a device", file=deck.file, path=("--device",), fix="give --device cpu or --device gpu")
+        if device == "cpu" and gpu_backend:
+            raise InputError(f"--backend {backend} runs on a GPU, but --device cpu was given", file=deck.file, path=("--backend",),
+                             fix="leave out --device, or give a CPU backend (numba)")
+    if device is None:
+        asked = {entry.params.device.lower() for entry in deck.solvers if getattr(entry.params, "device", None)}
+        if len(asked) > 1:
+            raise InputError("the solver sections ask for different devices (Device: CPU and GPU)", file=deck.file, path=("Solver", "Device"),
+                             fix="give every solver section the same Device, or choose one with --device")
+        device = asked.pop() if asked else ("gpu" if gpu_backend else "cpu")
+    if device == "gpu" and backend is not None and not gpu_backend:
+        raise InputError(f"--backend {backend} runs on the CPU, but the run is on the GPU", file=deck.file, path=("--backend",),
+                         fix="leave out --backend (the GPU backend is cuda), or run with --device cpu")
+    return device, gpu_backend
 
 
 def _block_id_from_name(name: str, names_by_id: dict[int, str]) -> int | None:

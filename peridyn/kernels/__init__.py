@@ -5,9 +5,9 @@ from __future__ import annotations
 import os
 from typing import Any, Callable
 
-from ..core.traversal import Backend, BondMap, Law, PairForce, PointSum
+from ..core.traversal import Backend, BondMap, Law, PairForce, PointMap, PointSum
 
-__all__ = ["Backend", "BondMap", "Law", "PairForce", "PointSum", "compiled", "default_backend", "select_backend"]
+__all__ = ["Backend", "BondMap", "Law", "PairForce", "PointMap", "PointSum", "compiled", "default_backend", "empty", "on_host", "resident", "select_backend"]
 
 _default: Backend | None = None
 
@@ -38,3 +38,19 @@ def compiled(block, law: Law) -> Callable[..., Any]:
     """The kernel of ``law`` on the backend of ``block`` (a ``BlockView``; the default backend
     when the view names none)."""
     return (block.backend or default_backend()).kernel(law)
+
+
+def on_host(block) -> bool:
+    """Whether the arrays of ``block`` are numpy arrays host-side helpers may read (the CPU
+    backends), not device arrays only the backend's kernels touch."""
+    return block.backend is None or block.backend.device == "cpu"
+
+
+def empty(block, dtype: Any = float) -> Any:
+    """A zero-length array ("feature off" in a law's args) on the backend of ``block``."""
+    return (block.backend or default_backend()).empty(dtype)
+
+
+def resident(block, array: Any) -> Any:
+    """A model's constant ``array`` where the kernels of ``block``'s backend read it."""
+    return array if on_host(block) else block.backend.resident(array)

@@ -18,7 +18,7 @@ import types
 from pathlib import Path
 from typing import Callable
 
-from ..core.traversal import BondMap, Law, PairForce, PointSum
+from ..core.traversal import BondMap, Law, PairForce, PointMap, PointSum
 
 ROLES = ("term", "bond", "pair", "point", "finish", "gate")
 
@@ -107,22 +107,25 @@ def load_module(source: str, key: str) -> types.ModuleType:
     return module
 
 
-def compile_function(fn: Callable, compiler: Callable[[Callable], Callable]) -> Callable:
+def compile_function(fn: Callable, compiler: Callable[[Callable], Callable], retarget: bool = False) -> Callable:
     """``compiler`` applied to ``fn`` after the plain Python functions it calls (helpers of the
     physics, at any depth) are rebound to ``compiler``'s versions of them, so a law's functions
     and their helpers are ordinary Python that each backend compiles for its own target.
-    Already-compiled helpers (``@njit`` functions) are kept."""
-    return compiler(_rebound(plain_function(fn), compiler, {}))
+    Already-compiled helpers (``@njit`` functions) are kept, or with ``retarget`` (a backend
+    for another target, e.g. a GPU) compiled again from their Python source."""
+    return compiler(_rebound(plain_function(fn), compiler, {}, retarget))
 
 
-def _rebound(py: types.FunctionType, compiler: Callable, memo: dict[int, Callable]) -> types.FunctionType:
+def _rebound(py: types.FunctionType, compiler: Callable, memo: dict[int, Callable], retarget: bool = False) -> types.FunctionType:
     g = py.__globals__
     new = {}
     for name in py.__code__.co_names:
         target = g.get(name)
+        if retarget and not isinstance(target, types.FunctionType) and isinstance(getattr(target, "py_func", None), types.FunctionType):
+            target = target.py_func
         if isinstance(target, types.FunctionType):
             if id(target) not in memo:
-                memo[id(target)] = compiler(_rebound(target, compiler, memo))
+                memo[id(target)] = compiler(_rebound(target, compiler, memo, retarget))
             new[name] = memo[id(target)]
     if not new:
         return py
@@ -131,14 +134,16 @@ def _rebound(py: types.FunctionType, compiler: Callable, memo: dict[int, Callabl
     return f
 
 
-def imports(law: Law, compiler: str) -> str:
+def imports(law: Law, compiler: str, retarget: bool = False) -> str:
     """Import lines binding each of the law's functions, compiled by the expression ``compiler``
-    (e.g. ``njit(error_model="numpy")``), to its role name."""
+    (e.g. ``njit(error_model="numpy")``), to its role name (``retarget``: see
+    ``compile_function``)."""
     lines = ["from peridyn.kernels.codegen import compile_function"]
+    extra = ", retarget=True" if retarget else ""
     for role, fn in law_functions(law).items():
         module, name = function_path(fn)
         lines.append(f"from {module} import {name} as _{role}_source")
-        lines.append(f"{role} = compile_function(_{role}_source, {compiler})")
+        lines.append(f"{role} = compile_function(_{role}_source, {compiler}{extra})")
     return "\n".join(lines)
 
 
@@ -195,6 +200,12 @@ def loop_body(law: Law, indent: str) -> str:
 def point_loop(law: Law, loop: str) -> str:
     """The body of one point's row under the statement ``loop`` (a point loop header such as
     ``for i in prange(start, stop):``, or ``if True:`` for a row function of ``i``)."""
+    if isinstance(law, PointMap):
+        if law.width == 1:
+            body = ["out[i] = point(i, args)"]
+        else:
+            body = ["r = point(i, args)"] + [f"out[i, {k}] = r[{k}]" for k in range(law.width)]
+        return f"    {loop}\n" + "\n".join("        " + s for s in body) + "\n"
     pre = ["p = point(i, args)" if law.point is not None else "p = 0.0"]
     if isinstance(law, PointSum) and law.width == 1:
         pre.append("acc = 0.0")

@@ -28,8 +28,8 @@ from ..core.fields import FieldSpec, Relation, Temporal
 from ..core.influence import omega
 from ..core.interfaces import BlockView, ElasticModuli, Material
 from ..core.params import UsedWhen
-from ..core.traversal import BondMap, PairForce, PointSum
-from ..kernels import compiled
+from ..core.traversal import BondMap, PairForce, PointMap, PointSum
+from ..kernels import compiled, empty, on_host, resident
 from ..kernels.packing import pack_points_kernel, reach_kernel
 from .moduli import IsotropicElasticParams, isotropic_moduli
 
@@ -260,11 +260,13 @@ def point_coefficients(m, theta, K, mu):
     return a, theta * ((3.0 * K) / m - a / 3.0)
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def coefficients_kernel(start, stop, m, theta, K, mu, a, c):
-    """``point_coefficients`` of the points [start, stop) into a and c."""
-    for i in prange(start, stop):
-        a[i], c[i] = point_coefficients(m[i], theta[i], K, mu)
+def coefficients_of_point(i, args):
+    """(a_i, c_i) of ``point_coefficients``; args (m, theta, K, mu)."""
+    m, theta, K, mu = args
+    return point_coefficients(m[i], theta[i], K, mu)
+
+
+COEFFICIENTS = PointMap(coefficients_of_point, width=2)
 
 
 # Packed point records for the hot kernels: row i of P (n_local, 9) holds (y_x, y_y, y_z, a_i,
@@ -302,14 +304,15 @@ class Elastic(Material):
     precompute_fields = ("Dilatation",)
     row_local = True
     bond_energy = "lps"
+    devices = frozenset({"cpu", "gpu"})
 
     def __init__(self, params: ElasticParams, *, horizon: float | None, options=None) -> None:
         super().__init__(params, horizon=horizon, options=options)
         self.K, self.mu = params.moduli()
         self.alpha_T = params.thermal_expansion_coefficient
         self.omega_table = EMPTY
-        self._a: np.ndarray | None = None
-        self._c: np.ndarray | None = None
+        self._ac_backend = None
+        self._ac = None  # (n, 2) a and c of every local point (the general kernels)
         self._P: np.ndarray | None = None  # packed records, allocated by the first view that uses them
         self._reaches: dict[tuple[int, int], tuple[int, int, int, int]] = {}
         self._damage_model = None  # a damage model whose rule precompute applies itself
@@ -340,15 +343,15 @@ class Elastic(Material):
 
     def _common(self, block: BlockView):
         kind = block.influence.kind
-        return kind, block.horizon, self.omega_table
+        return kind, block.horizon, resident(block, self.omega_table)
 
     def _damage(self, block: BlockView) -> np.ndarray:
-        return block.fields["Bond_Damage"] if "Bond_Damage" in block.fields else EMPTY
+        return block.fields["Bond_Damage"] if "Bond_Damage" in block.fields else empty(block)
 
     def _dT(self, block: BlockView) -> tuple[np.ndarray, float]:
         if self.thermal:
             return block.fields["Temperature_Change"], float(self.alpha_T)
-        return EMPTY, 0.0
+        return empty(block), 0.0
 
     def initialize(self, block: BlockView) -> None:
         s, nl = block.fields, block.bonds
@@ -378,7 +381,7 @@ class Elastic(Material):
         kind, delta, table = self._common(block)
         dT, aT = self._dT(block)
         damage = self._damage(block)
-        if kind == 0 and not damage.shape[0] and not dT.shape[0] and block.stop - block.start >= PACK_MIN_ROWS:
+        if kind == 0 and not damage.shape[0] and not dT.shape[0] and block.stop - block.start >= PACK_MIN_ROWS and on_host(block):
             P = self._packed(block, False)
             law, zeta = self._lengths(block, DILATATION_PLAIN, P)
             compiled(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, zeta, P, (P, s["Weighted_Volume"]), s["Dilatation"])
@@ -422,15 +425,21 @@ class Elastic(Material):
         both ends of every bond) of every row the view's bonds reach."""
         s = block.fields
         n = s.num_points
-        if self._a is None or self._a.shape[0] != n:
-            self._a = np.zeros(n)
-            self._c = np.zeros(n)
-        lo1, hi1, lo2, hi2 = self._reach(block) if reach else (block.start, block.stop, block.num_owned, n)
-        m, theta = s["Weighted_Volume"], s["Dilatation"]
-        coefficients_kernel(lo1, hi1, m, theta, self.K, self.mu, self._a, self._c)
+        backend = block.backend
+        if self._ac is None or self._ac.shape[0] != n or (backend is not None and self._ac_backend is not backend):
+            self._ac = backend.zeros((n, 2)) if backend is not None else np.zeros((n, 2))
+            self._ac_backend = backend
+        if not on_host(block):  # one device: no ghosts; every row (those of a closed block's bonds among them)
+            lo1, hi1, lo2, hi2 = 0, n, n, n
+        else:
+            lo1, hi1, lo2, hi2 = self._reach(block) if reach else (block.start, block.stop, block.num_owned, n)
+        args = (s["Weighted_Volume"], s["Dilatation"], self.K, self.mu)
+        kernel = compiled(block, COEFFICIENTS)
+        nl = block.bonds
+        kernel(lo1, hi1, nl.offsets, nl.neighbors, s["Weighted_Volume"], s["Coordinates"], args, self._ac)
         if hi2 > lo2:  # ghosts (MPI): their dilatation and weighted volume are exchanged
-            coefficients_kernel(lo2, hi2, m, theta, self.K, self.mu, self._a, self._c)
-        return self._a, self._c
+            kernel(lo2, hi2, nl.offsets, nl.neighbors, s["Weighted_Volume"], s["Coordinates"], args, self._ac)
+        return self._ac[:, 0], self._ac[:, 1]
 
     def force_state(self, block: BlockView, t: np.ndarray) -> None:
         s, nl = block.fields, block.bonds
@@ -445,13 +454,14 @@ class Elastic(Material):
         kind, delta, table = self._common(block)
         dT, aT = self._dT(block)
         damage = self._damage(block)
-        if kind == 0 and not damage.shape[0] and not dT.shape[0]:
+        host = on_host(block)
+        if kind == 0 and not damage.shape[0] and not dT.shape[0] and host:
             P = self._packed(block, True)
             law, zeta = self._lengths(block, PAIR_FORCE_PLAIN, P)
             compiled(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, zeta, P, (P,), force_density)
             return True
-        reverse = nl.reverse() if damage.shape[0] and not block.damage_symmetric else EMPTY_INDEX
-        if kind == 0 and damage.shape[0] and not dT.shape[0] and not reverse.shape[0]:
+        reverse = nl.reverse() if damage.shape[0] and not block.damage_symmetric else empty(block, EMPTY_INDEX.dtype)
+        if kind == 0 and damage.shape[0] and not dT.shape[0] and not reverse.shape[0] and host:
             P = self._packed(block, True)
             law, zeta = self._lengths(block, PAIR_FORCE_DAMAGE_PLAIN, P)
             compiled(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, zeta, P, (P, damage), force_density)

@@ -23,7 +23,7 @@ from ..core.fields import FieldSpec
 from ..core.interfaces import BlockView, ElasticModuli, Material
 from ..core.params import ModelParams, UsedWhen
 from ..core.traversal import BondMap, PairForce, PointSum
-from ..kernels import compiled
+from ..kernels import compiled, empty
 from .moduli import bulk_and_shear
 
 EMPTY = np.zeros(0)
@@ -111,6 +111,7 @@ class ElasticBondBased(Material):
     Params = ElasticBondBasedParams
     row_local = True
     bond_energy = "pair"
+    devices = frozenset({"cpu", "gpu"})
 
     def __init__(self, params: ElasticBondBasedParams, *, horizon: float | None, options=None) -> None:
         super().__init__(params, horizon=horizon, options=options)
@@ -144,7 +145,7 @@ class ElasticBondBased(Material):
         return []
 
     def _damage(self, block: BlockView) -> np.ndarray:
-        return block.fields["Bond_Damage"] if "Bond_Damage" in block.fields else EMPTY
+        return block.fields["Bond_Damage"] if "Bond_Damage" in block.fields else empty(block)
 
     def force_state(self, block: BlockView, t: np.ndarray) -> None:
         s, nl = block.fields, block.bonds
@@ -153,7 +154,7 @@ class ElasticBondBased(Material):
     def force_fused(self, block: BlockView, force_density: np.ndarray) -> bool:
         s, nl = block.fields, block.bonds
         damage = self._damage(block)
-        reverse = nl.reverse() if damage.shape[0] and not block.damage_symmetric else EMPTY_INDEX
+        reverse = nl.reverse() if damage.shape[0] and not block.damage_symmetric else empty(block, EMPTY_INDEX.dtype)
         args = (self.c, damage, reverse, s["Volume"])
         compiled(block, PAIR_FORCE)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, force_density)
         return True

@@ -133,4 +133,5 @@ def peridyn_backends():
     return [
         ("numba", "peridyn.kernels.numba_cpu:NumbaBackend"),
         ("numba-serial", "peridyn.kernels.numba_cpu:SerialNumbaBackend"),
+        ("cuda", "peridyn.kernels.numba_cuda:CudaBackend"),
     ]

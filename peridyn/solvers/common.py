@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 from numba import njit
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
 from ..core.params import ModelParams
 from ..core.errors import InputError, InstabilityError
@@ -20,10 +20,18 @@ class SolverSection(ModelParams):
     verbose: bool = Field(False, alias="Verbose", description="accepted; use --verbose for more output")
     initial_time: float = Field(0.0, alias="Initial Time", description="start time of this solver (T)")
     final_time: float = Field(1.0, alias="Final Time", description="end time of this solver (T)")
+    device: str | None = Field(None, alias="Device", description='"CPU" or "GPU": where an explicit solver runs (the command line\'s --device wins; GPU needs peridyn[gpu])')
     disable_heuristics: bool = Field(False, alias="Disable Heuristics", description="implicit solvers: no predictor, damping or line search heuristics")
     initialize_predictor: bool = Field(
         False, alias="Initialize Predictor From Previous Solver", description="implicit solvers: start from the previous solver's velocity"
     )
+
+    @field_validator("device")
+    @classmethod
+    def _device_name(cls, v):
+        if v is not None and v.lower() not in ("cpu", "gpu"):
+            raise ValueError(f"Device {v!r} is not a device: give \"CPU\" or \"GPU\"")
+        return v
 
     @model_validator(mode="after")
     def _time_order(self):
@@ -90,6 +98,10 @@ def step_work_kernel(n, du, f_old, f_new, b_old, b_new, volume, free):
         w_presc += p * volume[i]
         w_body += q * volume[i]
     return w_all, w_presc, w_body
+
+
+#: largest energy balance error of a trusted run, relative to its energy (see EnergyMonitor)
+SUSPECT_BALANCE_ERROR = 0.03
 
 
 class EnergyMonitor:
@@ -229,6 +241,20 @@ class EnergyMonitor:
             sim.num_owned, du, f_old, f_new, b_old if b_old is not None else empty, b_new if b_new is not None else empty,
             sim.fields["Volume"], self.free,
         )
+
+    def account(self) -> dict[str, float]:
+        """The run's energy account for the summary (see ``_account``)."""
+        return {
+            "kinetic_initial": self.kinetic0,
+            "kinetic": self.kinetic,
+            "stored_from_work": self.stored,
+            "external_work": self.external,
+            "constraint_work": self.constraint,
+            "balance_error": self.balance,
+            "max_relative_error": self.max_error,
+            "resolution": self.resolution,
+            "kinetic_over_supply": self.max_excess,
+        }
 
     @property
     def max_error(self) -> float:

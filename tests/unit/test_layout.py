@@ -24,6 +24,7 @@ LAYERS = [
     ["testing"],
     ["engine"],
     ["solvers"],
+    ["gpu"],
     ["materials", "damage", "contact", "computes"],
     ["kernels"],
     ["io"],

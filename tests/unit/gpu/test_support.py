@@ -1,0 +1,78 @@
+"""A deck with something that has no GPU path is refused with one line naming it and
+``--device cpu`` (exit 2), by ``peridyn run --device gpu`` and by ``peridyn check --device gpu``
+before anything runs; nothing falls back to the CPU silently."""
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+import yaml
+
+pytest.importorskip("numba.cuda")
+
+from ..solvers.test_verlet_gpu import STEEL, lattice_deck, run  # noqa: E402
+
+
+def check(folder, deck, *extra):
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "deck.yaml").write_text(yaml.safe_dump(deck, sort_keys=False))
+    return subprocess.run([sys.executable, "-m", "peridyn", "check", "deck.yaml", *extra], cwd=folder, capture_output=True, text=True, timeout=300)
+
+
+def refused(proc, *words):
+    assert proc.returncode == 2, proc.stdout + proc.stderr
+    errors = [line for line in proc.stderr.splitlines() if line.startswith("error:")]
+    assert len(errors) == 1, proc.stderr
+    for w in words + ("--device cpu", "deck.yaml"):
+        assert w in errors[0], errors[0]
+
+
+def quasi_static():
+    deck = lattice_deck(STEEL)
+    deck["Peridigm"]["Solver"] = {"Initial Time": 0.0, "Final Time": 1.0, "QuasiStatic": {"Number of Load Steps": 2}}
+    return deck
+
+
+def correspondence():
+    return lattice_deck({"Material Model": "Elastic Correspondence", "Density": 7800.0, "Bulk Modulus": 130.0e9, "Shear Modulus": 78.0e9,
+                         "Hourglass Coefficient": 0.02})
+
+
+def contact():
+    deck = lattice_deck(STEEL)
+    deck["Peridigm"]["Contact"] = {"Search Radius": 0.003, "Search Frequency": 1,
+                                   "Models": {"C": {"Contact Model": "Short Range Force", "Contact Radius": 0.0008, "Spring Constant": 1.0e12}},
+                                   "Interactions": {"I": {"First Block": "block_1", "Second Block": "block_1", "Contact Model": "C"}}}
+    return deck
+
+
+@pytest.mark.parametrize("make, words", [(quasi_static, ("QuasiStatic",)), (correspondence, ("Elastic Correspondence",)), (contact, ("contact",))],
+                         ids=["solver", "material", "contact"])
+def test_what_has_no_gpu_path_is_refused_before_the_run(tmp_path, make, words):
+    deck = make()
+    refused(check(tmp_path / "check", deck, "--device", "gpu"), *words)
+    refused(run(tmp_path / "run", deck, "--device", "gpu"), *words)
+    assert not list((tmp_path / "run").glob("*.e"))
+    ok = check(tmp_path / "cpu", deck)
+    assert ok.returncode == 0, ok.stderr
+
+
+def test_check_says_a_deck_runs_on_the_gpu(tmp_path):
+    proc = check(tmp_path, lattice_deck(STEEL, damage={"Damage Model": "Critical Stretch", "Critical Stretch": 0.01}), "--device", "gpu")
+    assert proc.returncode == 0 and "device: gpu" in proc.stdout, proc.stdout + proc.stderr
+
+
+def test_backend_and_device_must_agree(tmp_path):
+    deck = lattice_deck(STEEL, steps=2)
+    refused(run(tmp_path / "a", deck, "--device", "gpu", "--backend", "numba"), "--backend numba")
+    proc = run(tmp_path / "b", deck, "--backend", "cuda")  # the GPU backend means the GPU
+    assert proc.returncode == 0 and "Verlet on the GPU" in proc.stderr, proc.stderr
+
+
+def test_without_a_gpu_the_run_says_so(tmp_path, monkeypatch):
+    monkeypatch.setenv("NUMBA_ENABLE_CUDASIM", "0")
+    proc = run(tmp_path, lattice_deck(STEEL, steps=2), "--device", "gpu")
+    if proc.returncode == 0:
+        pytest.skip("this machine has a GPU")
+    refused(proc, "no CUDA GPU")

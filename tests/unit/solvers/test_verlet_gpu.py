@@ -1,0 +1,134 @@
+"""Explicit dynamics on the GPU (``peridyn run --device gpu``) against the same deck on the CPU:
+every field of every output frame and the energy account, with damage, influence functions,
+thermal strain, body forces and prescribed motion. The runs use numba-cuda's simulator
+(``NUMBA_ENABLE_CUDASIM=1``, tests/conftest.py) at small sizes: there the arithmetic is the CPU's
+and the fields are equal; on a GPU the bound is round-off, 1e-12 of each field's largest value
+(fused multiply-adds in the device code)."""
+from __future__ import annotations
+
+import copy
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+pytest.importorskip("numba.cuda")
+netCDF4 = pytest.importorskip("netCDF4")
+
+SIMULATED = os.environ.get("NUMBA_ENABLE_CUDASIM") == "1"
+RTOL = 0.0 if SIMULATED else 1e-12
+
+
+def lattice_deck(material: dict, *, n: int = 4, damage: dict | None = None, conditions: dict | None = None, steps: int = 6,
+                 dt: float = 1.0e-7, influence: str | None = None, variables=("Displacement", "Velocity", "Force_Density")) -> dict:
+    """A cube of n^3 points, 1 mm apart, horizon 2.015 mm, stretched outwards by an initial velocity."""
+    h = 1.0e-3
+    disc = {"Type": "PdQuickGrid", "NeighborhoodType": "Spherical",
+            "TensorProduct3DMeshGenerator": {"Type": "PdQuickGrid", "X Origin": 0.0, "Y Origin": 0.0, "Z Origin": 0.0,
+                                             "X Length": n * h, "Y Length": n * h, "Z Length": n * h,
+                                             "Number Points X": n, "Number Points Y": n, "Number Points Z": n}}
+    if influence:
+        disc["Influence Function"] = influence
+    c = n * h / 2
+    bcs = {"All Node Set": " ".join(str(k + 1) for k in range(n**3)),
+           "Left Node Set": " ".join(str(k + 1) for k in range(n)),
+           "Spread": {"Type": "Initial Velocity", "Node Set": "All Node Set", "Coordinate": "x", "Value": f"200.0*(x-{c})/{c}"}}
+    bcs.update(conditions or {})
+    tree = {"Discretization": disc, "Materials": {"M": material},
+            "Blocks": {"B": {"Block Names": "block_1", "Material": "M", "Horizon": 2.015 * h}},
+            "Boundary Conditions": bcs,
+            "Solver": {"Initial Time": 0.0, "Final Time": steps * dt, "Verlet": {"Fixed dt": dt}},
+            "Output": {"Output File Type": "ExodusII", "Output Filename": "run", "Output Frequency": 2,
+                       "Output Variables": {v: True for v in variables}}}
+    if damage:
+        tree["Damage Models"] = {"D": damage}
+        tree["Blocks"]["B"]["Damage Model"] = "D"
+    return {"Peridigm": tree}
+
+
+STEEL = {"Material Model": "Elastic", "Density": 7800.0, "Bulk Modulus": 130.0e9, "Shear Modulus": 78.0e9}
+LOADS = {
+    "Pull": {"Type": "Body Force", "Node Set": "Left Node Set", "Coordinate": "z", "Value": "1e12*t"},
+    "Hold": {"Type": "Prescribed Displacement", "Node Set": "Left Node Set", "Coordinate": "y", "Value": "1e-3*t"},
+}
+CASES = {
+    "lps_critical_stretch_loads": lattice_deck(STEEL, damage={"Damage Model": "Critical Stretch", "Critical Stretch": 0.0005},
+                                               conditions=LOADS, variables=("Displacement", "Velocity", "Force_Density", "Damage", "Dilatation")),
+    "lps_parabolic_thermal": lattice_deck(
+        {**STEEL, "Thermal Expansion Coefficient": 1.0e-5}, influence="Parabolic Decay",
+        conditions={"Heat": {"Type": "Prescribed Temperature", "Node Set": "All Node Set", "Value": "1e8*t*x"}},
+        variables=("Displacement", "Force_Density", "Dilatation", "Temperature")),
+    "lps_gaussian_time_dependent_stretch": lattice_deck(
+        STEEL, influence="Gaussian", damage={"Damage Model": "Time Dependent Critical Stretch", "Time Dependent Critical Stretch": "0.002-3e2*t"},
+        variables=("Displacement", "Velocity", "Damage")),
+    "bond_based_critical_stretch": lattice_deck({"Material Model": "Elastic Bond Based", "Density": 7800.0, "Bulk Modulus": 130.0e9},
+                                                damage={"Damage Model": "Critical Stretch", "Critical Stretch": 0.0004},
+                                                conditions=LOADS, variables=("Displacement", "Velocity", "Force_Density", "Damage")),
+}
+
+
+def run(folder: Path, deck: dict, *extra: str, name: str = "deck.yaml") -> subprocess.CompletedProcess:
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / name).write_text(yaml.safe_dump(deck, sort_keys=False))
+    return subprocess.run([sys.executable, "-m", "peridyn", "run", name, "--no-progress", *extra], cwd=folder, capture_output=True, text=True,
+                          timeout=600)
+
+
+def frames(path: Path) -> dict[str, np.ndarray]:
+    with netCDF4.Dataset(path) as ds:
+        out = {"time": np.array(ds["time_whole"][:])}
+        for k in ds.variables:
+            if k.startswith("vals_nod_var") or k.startswith("vals_elem_var"):
+                out[k] = np.array(ds[k][:])
+    return out
+
+
+def energy(log: str) -> list[float]:
+    line = next(s for s in log.splitlines() if s.strip().startswith("energy:"))
+    return [float(v) for v in re.findall(r"[-+]?\d+\.?\d*(?:e[-+]?\d+)?", line.split(";")[0])]
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_a_gpu_run_gives_the_cpu_run_fields_and_energies(tmp_path, case):
+    deck = CASES[case]
+    cpu = run(tmp_path / "cpu", deck)
+    assert cpu.returncode == 0, cpu.stderr
+    gpu = run(tmp_path / "gpu", deck, "--device", "gpu")
+    assert gpu.returncode == 0, gpu.stderr
+    assert "Verlet on the GPU" in gpu.stderr
+    a, b = frames(tmp_path / "cpu" / "run.e"), frames(tmp_path / "gpu" / "run.e")
+    assert a.keys() == b.keys() and len(a["time"]) == 4  # steps 0, 2, 4, 6
+    for k in a:
+        scale = float(np.max(np.abs(a[k]), initial=0.0))
+        np.testing.assert_allclose(b[k], a[k], rtol=RTOL, atol=RTOL * scale, err_msg=f"{case}: {k}")
+    np.testing.assert_allclose(energy(gpu.stderr), energy(cpu.stderr), rtol=1e-12)
+    if "Damage" in str(deck):
+        with netCDF4.Dataset(tmp_path / "gpu" / "run.e") as ds:
+            names = [str(s) for s in netCDF4.chartostring(ds["name_elem_var"][:])]
+            damage = np.array(ds[f"vals_elem_var{names.index('Damage') + 1}eb1"][:])
+        assert 0.0 < damage.max() < 1.0, "the case must break some bonds, not all"
+
+
+def test_the_deck_can_ask_for_the_gpu_and_the_command_line_wins(tmp_path):
+    deck = copy.deepcopy(CASES["bond_based_critical_stretch"])
+    deck["Peridigm"]["Solver"]["Device"] = "GPU"
+    on_gpu = run(tmp_path / "a", deck)
+    assert on_gpu.returncode == 0 and "Verlet on the GPU" in on_gpu.stderr, on_gpu.stderr
+    on_cpu = run(tmp_path / "b", deck, "--device", "cpu")
+    assert on_cpu.returncode == 0 and "on the GPU" not in on_cpu.stderr, on_cpu.stderr
+    deck["Peridigm"]["Solver"]["Device"] = "TPU"
+    bad = run(tmp_path / "c", deck)
+    assert bad.returncode == 2 and "Device" in bad.stderr and "GPU" in bad.stderr
+
+
+def test_a_run_too_coarse_in_time_stops_on_the_gpu_as_on_the_cpu(tmp_path):
+    deck = lattice_deck(STEEL, steps=40, dt=6.0e-7)
+    for device in ("cpu", "gpu"):
+        proc = run(tmp_path / device, deck, "--device", device)
+        assert proc.returncode == 3, proc.stderr
+        assert "unstable" in proc.stderr and "nan" not in proc.stderr.lower()
