@@ -156,6 +156,10 @@ def _abort(comm, exc: BaseException, args) -> None:
     code = exc.exit_code if isinstance(exc, PeridynError) else ExitCode.INTERRUPTED if isinstance(exc, KeyboardInterrupt) else ExitCode.FAILURE
     text = exc.one_line() if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
     print(f"error on rank {comm.rank} of {comm.size}: {text}; stopping all ranks", file=sys.stderr, flush=True)
+    if comm.size > 1:
+        # MPI_Abort has the launcher kill every rank, racing the forwarding of this rank's
+        # stderr: without a moment for it the line was lost (once in three runs of tests/mpi)
+        time.sleep(0.5)
     comm.abort(int(code))
 
 
