@@ -187,6 +187,7 @@ class ShortRangeForce(ContactModel):
 
     name = "Short Range Force"
     Params = ShortRangeForceParams
+    devices = frozenset({"cpu", "gpu"})  # peridyn.gpu.contact
 
     def __init__(self, params: ModelParams, *, options: dict[str, Any] | None = None) -> None:
         super().__init__(params, options=options)

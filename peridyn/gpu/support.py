@@ -34,8 +34,8 @@ def gpu_problems(sim: Any) -> list[tuple[tuple[str, ...], str]]:
             out.append((blk.path or ("Blocks", blk.name),
                         f"block {blk.name!r}: bonds cross to a block of another material or damage model, or its horizon "
                         "varies, so its forces need the engine's bond-force gather, which has no GPU path yet"))
-    if sim.contact is not None:
-        out.append((("Contact",), "contact has no GPU kernels yet"))
+    if sim.contact is not None and "gpu" not in type(sim.contact.model).devices:
+        out.append((("Contact",), f"the contact model {sim.contact.model.name!r} has no GPU kernels"))
     if sim.data_loader is not None:
         out.append((("Data Loader",), "the data loader has no GPU path"))
     for c in list(sim.kinematic) + list(sim.force_conditions):

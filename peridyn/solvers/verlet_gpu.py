@@ -58,6 +58,7 @@ class DeviceEnergyMonitor(EnergyMonitor):
         self._out = b.zeros(K.SUMS)
         self._work = None
         self._empty = b.zeros((0, 3))
+        self.contact = None  #: the run's DeviceContact, synchronized for a diagnosis
 
     def force_work(self, du, f_old, f_new, b_old, b_new) -> None:
         self._work = (du, f_old, f_new, b_old if b_old is not None else self._empty, b_new if b_new is not None else self._empty)
@@ -72,11 +73,20 @@ class DeviceEnergyMonitor(EnergyMonitor):
         s[5] *= 0.25 * self.dt * self.dt
         self._account(step, time, s)
 
-    def _locate(self, vectors):
+    def _sync(self) -> None:
         self.dev.fields.download(["Velocity", "Force_Density", "Displacement", "Coordinates"])
         if self.sim.acceleration is not None:
             self._a.copy_to_host(self.sim.acceleration)
+        if self.contact is not None:
+            self.contact.to_host()
+
+    def _locate(self, vectors):
+        self._sync()
         return super()._locate(vectors)
+
+    def _advice(self) -> str:
+        self._sync()
+        return super()._advice()
 
 
 def run(solver, sim) -> None:
@@ -101,6 +111,11 @@ def run(solver, sim) -> None:
     x, y, u, v = f["Model_Coordinates"], f["Coordinates"], f["Displacement"], f["Velocity"]
     no_b = backend.zeros((0, 3))
     conditions = DeviceConditions(sim, dev)
+    contact = None
+    if sim.contact is not None:
+        from ..gpu.contact import DeviceContact
+
+        contact = DeviceContact(sim.contact, dev)
     grid = backend.grid(n)
     log.info("%s: Verlet on the GPU, dt = %.6g (critical estimate %.6g), %d steps from t = %.6g to %.6g", solver.section, dt, dt_crit,
              nsteps, t0, t0 + nsteps * dt)
@@ -108,16 +123,21 @@ def run(solver, sim) -> None:
     # step 0
     sim.time_prev = sim.time = t = t0
     evaluate_forces(sim, dev)
+    if contact is not None:
+        contact.add_force(f["Force_Density"], t, 0)
     conditions.apply_kinematic(t, t)
     conditions.apply_body_forces(t)
     K.acceleration_kick[grid](n, f["Force_Density"], f["External_Force_Density"] if has_b else no_b, rho, dt2, a, v, False)
     f.download()
     a.copy_to_host(sim.acceleration)
+    if contact is not None:
+        contact.to_host()
     sim.write_output(t)
     limit = solver._measure(sim, dt, dt_crit, nsteps)
     if math.isfinite(limit):
         log.info("%s: stable limit measured on the model: at most %.4g (%.3g x the estimate)", solver.section, limit, limit / dt_crit)
     monitor = DeviceEnergyMonitor(sim, dev, a, dt, dt_crit, beyond_limit=dt >= limit)
+    monitor.contact = contact
     f_old = backend.zeros((n, 3))
     b_old = backend.zeros((n, 3)) if has_b else None
     du = backend.zeros((n, 3))
@@ -131,6 +151,8 @@ def run(solver, sim) -> None:
             t = t0 + float(step) * dt
             sim.time_prev, sim.time = t_prev, t
             sim.begin_step(t)
+            if contact is not None:
+                contact.begin_step(step)
             K.kick[grid](n, v, a, dt2)
             conditions.apply_kinematic(t, t_prev)
             f_old.copy_to_device(f["Force_Density"])
@@ -139,12 +161,16 @@ def run(solver, sim) -> None:
             conditions.apply_body_forces(t)
             K.drift[grid](n, v, dt, x, u, y, du)
             evaluate_forces(sim, dev)
+            if contact is not None:
+                contact.add_force(f["Force_Density"], t, step)
             K.acceleration_kick[grid](n, f["Force_Density"], f["External_Force_Density"] if has_b else no_b, rho, dt2, a, v, True)
             monitor.force_work(du, f_old, f["Force_Density"], b_old, f["External_Force_Density"] if has_b else None)
             monitor.check(step, t)
             if writers.due_next():
                 f.download()
                 a.copy_to_host(sim.acceleration)
+                if contact is not None:
+                    contact.to_host()
             sim.write_output(t)
             f.swap()
             sim.fields.swap()
@@ -152,11 +178,15 @@ def run(solver, sim) -> None:
     except InstabilityError:
         f.download()
         a.copy_to_host(sim.acceleration)
+        if contact is not None:
+            contact.to_host()
         raise
     backend.synchronize()
     wall = _time.perf_counter() - wall0
     f.download()
     a.copy_to_host(sim.acceleration)
+    if contact is not None:
+        contact.to_host()
     monitor.flush()
     progress.close()
     if monitor.accounting and monitor.max_error > SUSPECT_BALANCE_ERROR and monitor.max_scale > monitor.floor:
@@ -176,7 +206,7 @@ def run(solver, sim) -> None:
             "bond_evaluations": nsteps * sim.num_bonds_global,
             "point_steps": nsteps * sim.num_global,
             "device_bytes_per_point": dev.memory_per_point(),
-            "contact": None,
+            "contact": contact.summary() if contact is not None else None,
             "energy": monitor.account(),
         }
     )

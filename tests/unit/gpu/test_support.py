@@ -39,16 +39,22 @@ def correspondence():
                          "Hourglass Coefficient": 0.02})
 
 
-def contact():
+def two_materials():
+    """Two blocks of different materials bonded to each other: the engine's bond-force gather."""
     deck = lattice_deck(STEEL)
-    deck["Peridigm"]["Contact"] = {"Search Radius": 0.003, "Search Frequency": 1,
-                                   "Models": {"C": {"Contact Model": "Short Range Force", "Contact Radius": 0.0008, "Spring Constant": 1.0e12}},
-                                   "Interactions": {"I": {"First Block": "block_1", "Second Block": "block_1", "Contact Model": "C"}}}
+    tree = deck["Peridigm"]
+    tree["Discretization"] = {"Type": "Shapes",
+                              "Shapes": {"A": {"Shape": "Box", "Block": "block_1", "Min": [0.0, 0.0, 0.0], "Max": [3e-3, 3e-3, 3e-3], "Spacing": 1e-3},
+                                         "B": {"Shape": "Box", "Block": "block_2", "Min": [3e-3, 0.0, 0.0], "Max": [6e-3, 3e-3, 3e-3], "Spacing": 1e-3}}}
+    tree["Materials"]["Bonds"] = {"Material Model": "Elastic Bond Based", "Density": 7800.0, "Bulk Modulus": 130.0e9}
+    tree["Blocks"] = {"B1": {"Block Names": "block_1", "Material": "M", "Horizon": 2.015e-3},
+                      "B2": {"Block Names": "block_2", "Material": "Bonds", "Horizon": 2.015e-3}}
+    tree["Boundary Conditions"] = {}
     return deck
 
 
-@pytest.mark.parametrize("make, words", [(quasi_static, ("QuasiStatic",)), (correspondence, ("Elastic Correspondence",)), (contact, ("contact",))],
-                         ids=["solver", "material", "contact"])
+@pytest.mark.parametrize("make, words", [(quasi_static, ("QuasiStatic",)), (correspondence, ("Elastic Correspondence",)),
+                                         (two_materials, ("bond-force gather",))], ids=["solver", "material", "bonds-across-blocks"])
 def test_what_has_no_gpu_path_is_refused_before_the_run(tmp_path, make, words):
     deck = make()
     refused(check(tmp_path / "check", deck, "--device", "gpu"), *words)
