@@ -25,9 +25,9 @@ from typing import Any
 import numpy as np
 from numba import config, cuda, int64
 
+from ..contact import short_range
 from ..core.interfaces import VISIT_FROM_PARTNER, VISIT_FROM_POINT, ContactPairs
 
-PI = 3.141592653589793
 #: threads per block of the scan (a power of two; few under the simulator, where each thread is a Python thread)
 SCAN_THREADS = 2 if config.ENABLE_CUDASIM else 256
 #: most blocks of the scan's first and last passes
@@ -85,41 +85,9 @@ def _in_sorted_plain(values, lo, hi, key):
     return False
 
 
-@cuda.jit(device=True, inline=True)
-def _visit_term(p, j, delta, y, v, volume, rc, rc2, k, mu):
-    """``short_range._visit_term`` (the same operations in the same order)."""
-    dx = y[j, 0] - y[p, 0]
-    dy = y[j, 1] - y[p, 1]
-    dz = y[j, 2] - y[p, 2]
-    s2 = (dx * dx + dy * dy) + dz * dz
-    if not s2 < rc2:
-        return False, 0.0, 0.0, 0.0
-    d = math.sqrt(s2)
-    c = (9.0 * k) / ((((PI * delta) * delta) * delta) * delta)
-    tau = (c * (rc - d)) / delta
-    tv = tau * volume[j]
-    nx = -((tv * dx) / d)
-    ny = -((tv * dy) / d)
-    nz = -((tv * dz) / d)
-    if mu == 0.0:
-        return True, nx, ny, nz
-    ux = dx / d
-    uy = dy / d
-    uz = dz / d
-    ap = (v[p, 0] * ux + v[p, 1] * uy) + v[p, 2] * uz
-    aj = (v[j, 0] * ux + v[j, 1] * uy) + v[j, 2] * uz
-    px = v[p, 0] - ap * ux
-    py = v[p, 1] - ap * uy
-    pz = v[p, 2] - ap * uz
-    rx = px - 0.5 * (px + (v[j, 0] - aj * ux))
-    ry = py - 0.5 * (py + (v[j, 1] - aj * uy))
-    rz = pz - 0.5 * (pz + (v[j, 2] - aj * uz))
-    rn = math.sqrt((rx * rx + ry * ry) + rz * rz)
-    if rn != 0.0:
-        nn = math.sqrt((nx * nx + ny * ny) + nz * nz)
-        m = (-mu) * nn
-        return True, nx + (m * rx) / rn, ny + (m * ry) / rn, nz + (m * rz) / rn
-    return True, nx + 0.0, ny + 0.0, nz + 0.0
+#: the CPU model's force of one visit (``short_range._visit_term``), compiled for the GPU: the
+#: contact physics is written once
+_visit_term = cuda.jit(device=True, inline=True)(short_range._visit_term.py_func)
 
 
 # -- the search --------------------------------------------------------------------------------------
