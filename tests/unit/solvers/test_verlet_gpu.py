@@ -156,9 +156,32 @@ def test_the_deck_can_ask_for_the_gpu_and_the_command_line_wins(tmp_path):
     assert bad.returncode == 2 and "Device" in bad.stderr and "GPU" in bad.stderr
 
 
-def test_a_run_too_coarse_in_time_stops_on_the_gpu_as_on_the_cpu(tmp_path):
-    deck = lattice_deck(STEEL, steps=40, dt=6.0e-7)
+def test_a_run_that_goes_unstable_stops_at_the_same_step_on_the_gpu(tmp_path):
+    """A horizon of 10 spacings on a cube of 6: 0.8 of the critical time step estimate is above
+    the true limit (and not checked against the measured one), so an impact grows into an
+    instability. The device's energy sums stop the run with exit status 3 at the step the CPU's
+    stop it, with the diagnosis naming a point, and no NaN reaches the output; a NaN boundary
+    value stops it before it reaches a field."""
+    from peridyn.testing import cube_deck, node_set_ids
+
+    tree = cube_deck(STEEL, n=6, spacing=1e-3, horizon_factor=10.0)
+    tree["Boundary Conditions"] = {
+        "Face Node Set": node_set_ids(tree, lambda x: x[:, 0] > 5e-3),
+        "Impact": {"Type": "Initial Velocity", "Node Set": "Face Node Set", "Coordinate": "x", "Value": "-5.0"},
+    }
+    tree["Solver"] = {"Initial Time": 0.0, "Final Time": 1.0, "Verlet": {"Safety Factor": 0.8}}
+    tree["Output"] = {"Output Filename": "unstable", "Output Frequency": 5, "Output Variables": {"Displacement": True, "Velocity": True}}
+    steps = []
     for device in ("cpu", "gpu"):
-        proc = run(tmp_path / device, deck, "--device", device)
-        assert proc.returncode == 3, proc.stderr
-        assert "unstable" in proc.stderr and "nan" not in proc.stderr.lower()
+        proc = run(tmp_path / device, {"Peridigm": tree}, "--device", device)
+        assert proc.returncode == 3, proc.stderr[-3000:]
+        errors = [ln for ln in proc.stderr.splitlines() if ln.startswith("error:")]
+        assert len(errors) == 1 and " at point" in errors[0], proc.stderr
+        steps.append(int(errors[0].split("at step ")[1].split()[0]))
+        with netCDF4.Dataset(tmp_path / device / "unstable.e") as ds:
+            assert all(np.isfinite(np.asarray(v[:])).all() for k, v in ds.variables.items() if k.startswith("vals_"))
+    assert steps[0] <= 50 and steps[1] == steps[0], steps
+    tree["Boundary Conditions"]["Pull"] = {"Type": "Prescribed Displacement", "Node Set": "Face Node Set", "Coordinate": "y",
+                                           "Value": "(t - t)/(t - t)"}
+    proc = run(tmp_path / "nan", {"Peridigm": tree}, "--device", "gpu")
+    assert proc.returncode == 3 and "is nan" in proc.stderr, proc.stderr[-2000:]
