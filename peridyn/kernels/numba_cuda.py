@@ -46,6 +46,8 @@ def kernel(start, stop, offsets, neighbors, zeta, y, args, out):
 
 def cuda_module():
     """``numba.cuda``, or an InputError saying how to install it (the ``gpu`` extra)."""
+    if not hasattr(np, "row_stack"):  # removed from numpy 2.5; numba-cuda's kernel launch still calls it
+        np.row_stack = np.vstack
     try:
         from numba import cuda
     except ImportError as exc:  # pragma: no cover - depends on the installation

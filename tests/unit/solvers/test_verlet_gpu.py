@@ -56,6 +56,21 @@ LOADS = {
     "Pull": {"Type": "Body Force", "Node Set": "Left Node Set", "Coordinate": "z", "Value": "1e12*t"},
     "Hold": {"Type": "Prescribed Displacement", "Node Set": "Left Node Set", "Coordinate": "y", "Value": "1e-3*t"},
 }
+#: the plane x = 2 mm across the 4 mm cube, between the second and third layers of points
+PLANE = {"Type": "Rectangular_Plane", "Normal_X": 1.0, "Normal_Y": 0.0, "Normal_Z": 0.0,
+         "Lower_Left_Corner_X": 0.002, "Lower_Left_Corner_Y": -0.001, "Lower_Left_Corner_Z": 0.005,
+         "Bottom_Unit_Vector_X": 0.0, "Bottom_Unit_Vector_Y": 1.0, "Bottom_Unit_Vector_Z": 0.0, "Bottom_Length": 0.01, "Side_Length": 0.01}
+
+
+def with_bond_filter(deck: dict) -> dict:
+    """``deck`` on the same 4 x 4 x 4 points as a ``Shapes`` mesh, with the bonds across ``PLANE``
+    removed from the neighbor lists (PdQuickGrid takes no bond filter)."""
+    deck["Peridigm"]["Discretization"] = {
+        "Type": "Shapes", "Bond Filters": {"Cut": PLANE},
+        "Shapes": {"Cube": {"Shape": "Box", "Block": "block_1", "Min": [0.0, 0.0, 0.0], "Max": [0.004, 0.004, 0.004], "Spacing": 0.001}}}
+    return deck
+
+
 def contact_deck(steps: int = 8, dt: float = 5.0e-4) -> dict:
     """Two 3x3x3 boxes of points 1 apart (no bonds between them) flying into each other at 2 x 100 m/s,
     offset by half a spacing across, with Short Range Force contact and friction."""
@@ -92,6 +107,10 @@ CASES = {
                                                 damage={"Damage Model": "Critical Stretch", "Critical Stretch": 0.0004},
                                                 conditions=LOADS, variables=("Displacement", "Velocity", "Force_Density", "Damage")),
     "lps_two_bodies_contact_friction": contact_deck(),
+    "bond_based_initial_damage_plane": lattice_deck(
+        {"Material Model": "Elastic Bond Based", "Density": 7800.0, "Bulk Modulus": 130.0e9},
+        damage={"Damage Model": "Initial Damage", "Bond Filters": {"Cut": PLANE}}, variables=("Displacement", "Velocity", "Damage")),
+    "lps_bond_filter": with_bond_filter(lattice_deck(STEEL, conditions=LOADS, variables=("Displacement", "Velocity", "Dilatation"))),
 }
 
 
