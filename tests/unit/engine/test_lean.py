@@ -26,7 +26,7 @@ def test_outputs_nobody_asked_for_are_not_allocated():
     assert "Kinetic_Energy" in asked.fields and "Acceleration" not in asked.fields
 
 
-def test_serial_run_imports_neither_mpi_nor_contact_code(tmp_path):
+def test_serial_run_imports_neither_mpi_nor_contact_nor_gpu_code(tmp_path):
     deck = tmp_path / "d.yaml"
     tree = cube_deck(ELASTIC, n=3)
     tree["Solver"] = {"Final Time": 5e-3, "Verlet": {"Safety Factor": 0.5}}
@@ -39,7 +39,7 @@ def test_serial_run_imports_neither_mpi_nor_contact_code(tmp_path):
         import json, sys
         from peridyn.cli import main
         code = main(["run", {str(deck)!r}, "-q", "--output-dir", {str(tmp_path)!r}])
-        mods = [m for m in sys.modules if m.startswith(("mpi4py", "peridyn.contact"))]
+        mods = [m for m in sys.modules if m.startswith(("mpi4py", "peridyn.contact", "peridyn.gpu", "peridyn.kernels.numba_cuda", "numba.cuda", "numba_cuda"))]
         print(json.dumps({{"code": code, "mods": mods}}))
         """
     )
