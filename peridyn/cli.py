@@ -1,4 +1,4 @@
-"""The ``peridyn`` command: run, check, plugins, schema, convert, new-plugin."""
+"""The ``peridyn`` command: run, check, plugins, schema, convert, new-plugin, verify."""
 from __future__ import annotations
 
 import argparse
@@ -365,6 +365,15 @@ def cmd_new_plugin(args) -> int:
     return ExitCode.OK
 
 
+def cmd_verify(args) -> int:
+    """Run the verification problems; 0 every band holds, 1 one fails, 130 interrupted."""
+    from .verify import run_verify
+
+    _setup_logging(args.verbose - args.quiet)
+    command = "peridyn verify" + (" --quick" if args.quick else "") + (f" --problems {' '.join(args.problems)}" if args.problems else "")
+    return run_verify(args.problems, Path(args.out), quick=args.quick, command=command)
+
+
 # ------------------------------------------------------------------------------------------------
 def build_parser() -> argparse.ArgumentParser:
     from . import __version__
@@ -413,6 +422,13 @@ def build_parser() -> argparse.ArgumentParser:
     n.add_argument("--kind", choices=("material", "damage", "contact", "compute"), default="material")
     n.add_argument("--directory", default=".", help="where to create it")
     n.set_defaults(func=cmd_new_plugin)
+
+    vf = sub.add_parser("verify", help="run the verification problems: error against wall time, convergence rates, stable time steps")
+    vf.add_argument("--quick", action="store_true", help="the coarsest resolutions only (3 points per curve; a few minutes)")
+    vf.add_argument("--problems", nargs="+", metavar="NAME", help="run only these (default: all): wave-speed, force-convergence, verlet-energy, stability")
+    vf.add_argument("--out", default="peridyn-verify", help="folder for results.json, report.md and the figures (default: ./peridyn-verify)")
+    common(vf)
+    vf.set_defaults(func=cmd_verify)
     return p
 
 

@@ -21,6 +21,7 @@ PACKAGE = Path(peridyn.__file__).parent
 LAYERS = [
     ["__main__"],
     ["cli"],
+    ["verify"],
     ["testing"],
     ["engine"],
     ["solvers"],

@@ -1,0 +1,118 @@
+"""What a verification problem is: a ladder of resolutions per method, a measurement per
+point, and the bands its results must fall in."""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from typing import Any, ClassVar
+
+from ..fit import fit_rate
+
+
+@dataclass
+class Measurement:
+    """What one point of a problem measured.
+
+    ``error``: the point's error (dimensionless unless the problem's ``error_name`` says
+    otherwise); ``size``: the step the rate is fitted against (h/delta, dt in s, ...; None for a
+    table problem); ``steps``: time steps or force evaluations the point ran; ``values``: other
+    numbers worth a column (named with their units)."""
+
+    error: float | None
+    size: float | None = None
+    steps: int = 0
+    values: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class Check:
+    """One band a problem's result must fall in: ``value`` within [``low``, ``high``]."""
+
+    problem: str
+    method: str
+    what: str
+    value: float
+    low: float = -math.inf
+    high: float = math.inf
+
+    @property
+    def passed(self) -> bool:
+        return math.isfinite(self.value) and self.low <= self.value <= self.high
+
+    def band(self) -> str:
+        if math.isinf(self.low):
+            return f"<= {self.high:.3g}"
+        if math.isinf(self.high):
+            return f">= {self.low:.3g}"
+        return f"{self.low:.3g} .. {self.high:.3g}"
+
+    def as_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d.update(low=_num(self.low), high=_num(self.high), value=_num(self.value), passed=self.passed, band=self.band())
+        return d
+
+
+def _num(v: float) -> float | None:
+    """JSON has no inf or NaN: None stands for them."""
+    return v if math.isfinite(v) else None
+
+
+class Problem:
+    """A verification problem. Subclasses set the class attributes and :meth:`measure`."""
+
+    name: ClassVar[str]
+    title: ClassVar[str]
+    #: "curve": error against resolution, fitted rate and a figure; "table": a table only
+    kind: ClassVar[str] = "curve"
+    #: markdown: what is computed
+    computes: ClassVar[str]
+    #: markdown: the exact or reference answer and where it comes from
+    reference: ClassVar[str]
+    #: what ``resolution`` counts (e.g. "delta/h", "steps") and what ``size`` is (e.g. "h/delta")
+    resolution_name: ClassVar[str]
+    size_name: ClassVar[str] = "size"
+    error_name: ClassVar[str] = "relative error"
+    methods: ClassVar[tuple[str, ...]]
+
+    def ladder(self, method: str, quick: bool) -> list[float]:
+        """The resolutions to run for ``method``, coarsest first."""
+        raise NotImplementedError
+
+    def measure(self, method: str, resolution: float, quick: bool) -> Measurement:
+        """Run one point (in-process, serial)."""
+        raise NotImplementedError
+
+    # -- bands -------------------------------------------------------------------------------
+    #: per method: why no rate is fitted to its points (an error that does not converge steadily)
+    unfitted: ClassVar[dict[str, str]] = {}
+    #: per method: (low, high) of the fitted rate, or None for no rate band
+    rate_band: ClassVar[dict[str, tuple[float, float]]] = {}
+    #: per method: the largest allowed error at the finest resolution run
+    finest_band: ClassVar[dict[str, float]] = {}
+    #: per method: the largest allowed error at every point
+    every_band: ClassVar[dict[str, float]] = {}
+
+    def rate(self, points: list[dict[str, Any]]) -> float:
+        """The fitted rate of ``points`` (one method), error against size."""
+        return fit_rate([p["size"] for p in points], [p["error"] for p in points])
+
+    def checks(self, method: str, points: list[dict[str, Any]], quick: bool) -> list[Check]:
+        """The bands of ``method``'s finished ``points`` (finest last)."""
+        out: list[Check] = []
+        if not points:
+            return out
+        if method in self.every_band:
+            for p in points:
+                out.append(Check(self.name, method, f"{self.error_name} at {self.resolution_name} = {p['resolution']:g}", p["error"], high=self.every_band[method]))
+        if method in self.finest_band:
+            p = points[-1]
+            out.append(Check(self.name, method, f"{self.error_name} at the finest {self.resolution_name} = {p['resolution']:g}", p["error"], high=self.finest_band[method]))
+        if method in self.rate_band and len(points) >= 3:
+            lo, hi = self.rate_band[method]
+            out.append(Check(self.name, method, f"fitted rate of the {self.error_name} in {self.size_name}", self.rate(points), lo, hi))
+        out.extend(self.extra_checks(method, points, quick))
+        return out
+
+    def extra_checks(self, method: str, points: list[dict[str, Any]], quick: bool) -> list[Check]:
+        """Further bands a problem defines (default none)."""
+        return []

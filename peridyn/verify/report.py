@@ -1,0 +1,139 @@
+"""``report.md`` and its figures (error against wall time, log-log, one curve per method) from
+the state of a verification run (what ``results.json`` holds)."""
+from __future__ import annotations
+
+import logging
+import math
+from pathlib import Path
+from typing import Any
+
+log = logging.getLogger("peridyn.verify")
+
+PLOT_HINT = 'pip install "peridyn[plot]"'
+
+
+def _cell(text: str) -> str:
+    """``text`` fit for a markdown table cell (its pipes escaped)."""
+    return str(text).replace("|", "\\|")
+
+
+def _fmt(value: Any) -> str:
+    if value is None:
+        return "-"
+    if isinstance(value, bool):
+        return str(value)
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        if not math.isfinite(value):
+            return str(value)
+        return f"{value:.4g}" if 1e-3 <= abs(value) < 1e5 or value == 0 else f"{value:.3e}"
+    return str(value)
+
+
+def _matplotlib():
+    """pyplot with the Agg backend, or None when matplotlib is not installed."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return None
+    return plt
+
+
+def figure(entry: dict[str, Any], path: Path, plt) -> bool:
+    """Error (y) against wall time (x), log-log, one curve per method with its fitted rate in
+    the legend; False when no method has a point with a positive error and time."""
+    fig, ax = plt.subplots(figsize=(6.0, 4.2))
+    drawn = False
+    for method in entry["methods"]:
+        pts = [p for p in entry["points"] if p["method"] == method and p.get("error") and p["error"] > 0 and p["wall (s)"] > 0]
+        if not pts:
+            continue
+        rate = entry["rates"].get(method)
+        label = f"{method} (rate {rate:.2f} in {entry['size']})" if rate is not None and math.isfinite(rate) else method
+        ax.loglog([p["wall (s)"] for p in pts], [p["error"] for p in pts], "o-", label=label)
+        for p in pts:
+            ax.annotate(f"{p['resolution']:g}", (p["wall (s)"], p["error"]), textcoords="offset points", xytext=(4, 4), fontsize=7)
+        drawn = True
+    if drawn:
+        ax.set_xlabel("wall time (s)")
+        ax.set_ylabel(entry["error"])
+        ax.set_title(f"{entry['name']}: {entry['error']} against wall time\n(labels: {entry['resolution']})", fontsize=9)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return drawn
+
+
+def _table(entry: dict[str, Any]) -> list[str]:
+    extra: list[str] = []
+    for p in entry["points"]:
+        for k in p.get("values", {}):
+            if k not in extra:
+                extra.append(k)
+    curve = entry["kind"] == "curve"
+    head = ["method", entry["resolution"]] + ([entry["size"], entry["error"]] if curve else []) + extra + ["wall (s)", "steps", "peak memory (MiB)"]
+    lines = ["| " + " | ".join(_cell(h) for h in head) + " |", "|" + "---|" * len(head)]
+    for p in entry["points"]:
+        row = [p["method"], _fmt(p["resolution"])] + ([_fmt(p.get("size")), _fmt(p.get("error"))] if curve else [])
+        row += [_fmt(p.get("values", {}).get(k)) for k in extra]
+        row += [_fmt(p["wall (s)"]), _fmt(p["steps"]), f"{p['peak memory (MiB)']:.0f}"]
+        if "failure" in p:
+            row[-1] += f" (failed: {p['failure']})"
+        lines.append("| " + " | ".join(_cell(c) for c in row) + " |")
+    return lines
+
+
+def write_report(state: dict[str, Any], out: Path, *, figures: bool = True) -> Path:
+    """Write ``out/report.md`` (and ``out/<problem>.png`` per curve problem when matplotlib is
+    installed; one log line saying how to get them otherwise). Returns the report's path."""
+    out = Path(out)
+    plt = _matplotlib() if figures else None
+    if figures and plt is None:
+        log.warning("figures skipped: matplotlib is not installed (%s gives them); report.md is written without them", PLOT_HINT)
+    m, v = state["machine"], state["peridyn"]
+    failed = state.get("failed checks", 0)
+    lines = [
+        "# peridyn verify",
+        "",
+        f"- command: `{state['command']}`{' (quick: the coarsest resolutions)' if state['quick'] else ''}",
+        f"- status: {state['status']}; {'**' + str(failed) + ' check(s) FAIL**' if failed else 'every check passes'}; "
+        f"wall time {state['wall (s)']:.1f} s",
+        f"- date: {state['date']}; peridyn {v['version']}" + (f", commit {v['commit']}" if v.get("commit") else ""),
+        f"- machine: {m['cpu']}, {m['cores']} cores ({m['usable cores']} usable, {m['numba threads']} numba threads); {m['platform']}, "
+        f"Python {m['python']}",
+        "",
+        "Each point runs serially in one process; wall time is the point's own (set-up included unless its problem says "
+        "otherwise), peak memory the process's peak resident size so far (getrusage).",
+        "",
+    ]
+    for entry in state["problems"]:
+        lines += [f"## {entry['name']}: {entry['title']}", "", f"**Computed.** {entry['computes']}", "",
+                  f"**Reference.** {entry['reference']}", ""]
+        if not entry["points"]:
+            lines += ["Not run (the run was interrupted before it)." if state["status"] == "interrupted" else "No points.", ""]
+            continue
+        lines += _table(entry) + [""]
+        if entry["kind"] == "curve":
+            rates = [f"{meth}: {_fmt(r)}" if r is not None else f"{meth}: not fitted ({entry['unfitted'].get(meth, 'too few points')})"
+                     for meth, r in entry["rates"].items()]
+            if rates:
+                lines += [f"Fitted rate of the {entry['error']} in {entry['size']} (least squares, log-log): " + "; ".join(rates) + ".", ""]
+            if plt is not None:
+                png = out / f"{entry['name']}.png"
+                if figure(entry, png, plt):
+                    lines += [f"![{entry['name']}: error against wall time]({png.name})", ""]
+        lines += ["| check | method | value | band | result |", "|---|---|---|---|---|"]
+        for c in entry["checks"]:
+            lines.append(f"| {_cell(c['what'])} | {_cell(c['method'])} | {_fmt(c['value'])} | {c['band']} | {'pass' if c['passed'] else '**FAIL**'} |")
+        lines.append("")
+    path = out / "report.md"
+    tmp = path.with_name("report.md.tmp")
+    tmp.write_text("\n".join(lines), encoding="utf-8")
+    tmp.replace(path)
+    return path

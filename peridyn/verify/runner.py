@@ -1,0 +1,258 @@
+"""Run verification problems point by point: timing, peak memory, ``results.json`` rewritten
+after every finished point (an interrupted run keeps what it finished), bands checked."""
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import logging
+import math
+import os
+import platform
+import resource
+import subprocess
+import sys
+import time
+import traceback
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from ..core.errors import ExitCode, InputError
+from .problems import PROBLEMS, Check, Problem
+
+log = logging.getLogger("peridyn.verify")
+
+#: loggers silenced while a point runs: set-up warnings about the deliberately odd models
+#: (a single row of points, trial steps above the estimate) are not news here
+QUIET = ("peridyn.engine", "peridyn.solver", "peridyn.solvers", "peridyn.geometry")
+
+
+def select_problems(names: Sequence[str] | None) -> list[Problem]:
+    """The problems named (all, in their order, for None or an empty list); InputError for a
+    name that is not one."""
+    if not names:
+        return [cls() for cls in PROBLEMS.values()]
+    unknown = [n for n in names if n not in PROBLEMS]
+    if unknown:
+        raise InputError(f"--problems: unknown problem {unknown[0]!r}", fix=f"choose from {', '.join(PROBLEMS)}")
+    return [PROBLEMS[n]() for n in dict.fromkeys(names)]
+
+
+def prepare_out(out: Path) -> None:
+    """Create the --out folder (parents included); InputError when it is a file or cannot be made."""
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {str(out)!r} is a file, not a folder", fix="give a folder for results.json and report.md")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot create the folder --out {str(out)!r}: {exc.strerror or exc}", fix="give a folder you can write to") from None
+
+
+def machine() -> dict[str, Any]:
+    """Platform, CPU model and cores of this machine, and numba's thread count."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as fh:
+            for line in fh:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    try:
+        import numba
+
+        threads = int(numba.get_num_threads())
+    except Exception:  # pragma: no cover - numba is a dependency
+        threads = None
+    return {"platform": platform.platform(), "python": platform.python_version(), "cpu": cpu,
+            "cores": os.cpu_count(), "usable cores": cores, "numba threads": threads}
+
+
+def peridyn_version() -> dict[str, Any]:
+    """peridyn's version and, in a git checkout, its commit (``git rev-parse HEAD``; None
+    elsewhere)."""
+    from .. import __version__
+
+    commit = None
+    here = Path(__file__).resolve().parents[2]
+    if (here / ".git").exists():
+        try:
+            p = subprocess.run(["git", "-C", str(here), "rev-parse", "HEAD"], capture_output=True, text=True, timeout=10)
+            commit = p.stdout.strip() or None if p.returncode == 0 else None
+        except (OSError, subprocess.SubprocessError):
+            commit = None
+    return {"version": __version__, "commit": commit}
+
+
+def peak_memory_mib() -> float:
+    """Peak resident memory of this process so far (MiB; ``getrusage``: it never falls, so a
+    point's value is the largest of it and every point before)."""
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return rss / 2**20 if sys.platform == "darwin" else rss / 1024.0
+
+
+def _json_default(value: Any) -> Any:
+    if hasattr(value, "item"):  # numpy scalars
+        return _finite(value.item())
+    raise TypeError(f"not JSON: {type(value).__name__}")
+
+
+def _finite(value: Any) -> Any:
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    return value
+
+
+def write_json(path: Path, data: dict[str, Any]) -> None:
+    """Write ``data`` to ``path`` atomically (a temporary file renamed over it): a reader, or a
+    Ctrl-C during the write, never sees half a file. inf and NaN become null."""
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(_finite(data), indent=1, default=_json_default) + "\n", encoding="utf-8")
+    os.replace(tmp, path)
+
+
+class Run:
+    """One ``peridyn verify`` run: its state is what ``results.json`` holds."""
+
+    def __init__(self, problems: Sequence[Problem], out: Path, *, quick: bool, command: str = "peridyn verify") -> None:
+        self.problems = list(problems)
+        self.out = Path(out)
+        self.quick = quick
+        self.t0 = time.perf_counter()
+        self.state: dict[str, Any] = {
+            "format": 1,
+            "command": command,
+            "quick": quick,
+            "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+            "peridyn": peridyn_version(),
+            "machine": machine(),
+            "status": "running",
+            "wall (s)": 0.0,
+            "failed checks": 0,
+            "problems": [self._entry(p) for p in self.problems],
+        }
+
+    @staticmethod
+    def _entry(p: Problem) -> dict[str, Any]:
+        return {"name": p.name, "title": p.title, "unfitted": dict(p.unfitted), "kind": p.kind, "computes": p.computes, "reference": p.reference,
+                "resolution": p.resolution_name, "size": p.size_name, "error": p.error_name, "methods": list(p.methods),
+                "points": [], "rates": {}, "checks": []}
+
+    @property
+    def results_path(self) -> Path:
+        return self.out / "results.json"
+
+    def save(self) -> None:
+        self.state["wall (s)"] = time.perf_counter() - self.t0
+        write_json(self.results_path, self.state)
+
+    def point(self, problem: Problem, method: str, resolution: float) -> dict[str, Any]:
+        """Run and time one point; a failure other than Ctrl-C is recorded with the point."""
+        from .problems.dynamics import quiet
+
+        t0 = time.perf_counter()
+        failure = None
+        try:
+            with quiet(*QUIET):
+                m = problem.measure(method, resolution, self.quick)
+        except (KeyboardInterrupt, SystemExit):
+            raise
+        except Exception as exc:
+            log.debug("%s", traceback.format_exc())
+            failure, m = f"{type(exc).__name__}: {exc}", None
+        wall = time.perf_counter() - t0
+        point = {"problem": problem.name, "method": method, "resolution": resolution,
+                 "size": m.size if m else None, "error": m.error if m else None,
+                 "wall (s)": m.values.pop("wall (s)", wall) if m else wall, "steps": m.steps if m else 0,
+                 "peak memory (MiB)": peak_memory_mib(), "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+                 "values": m.values if m else {}}
+        if failure:
+            point["failure"] = failure
+        return point
+
+    def warm_up(self, problem: Problem, method: str, resolution: float) -> None:
+        """Run ``method``'s coarsest point once, untimed, so that compiling its kernels (or
+        loading them from the cache) is not in the first point's wall time; a failure here is
+        left for the timed point to record."""
+        from .problems.dynamics import quiet
+
+        try:
+            with quiet(*QUIET):
+                problem.measure(method, resolution, self.quick)
+        except Exception:  # noqa: BLE001 - reported by the point itself
+            pass
+
+    def update(self, problem: Problem, entry: dict[str, Any]) -> None:
+        """Recompute ``entry``'s rates and checks from its points."""
+        checks: list[Check] = []
+        rates = {}
+        for method in problem.methods:
+            pts = [p for p in entry["points"] if p["method"] == method and "failure" not in p]
+            failed = [p for p in entry["points"] if p["method"] == method and "failure" in p]
+            for p in failed:
+                checks.append(Check(problem.name, method, f"point {p['resolution']:g} failed: {p['failure']}", math.nan))
+            if problem.kind == "curve" and len(pts) >= 2:
+                rates[method] = None if method in problem.unfitted else problem.rate(pts)
+            checks.extend(problem.checks(method, pts, self.quick))
+        entry["rates"] = rates
+        entry["checks"] = [c.as_dict() for c in checks]
+        self.state["failed checks"] = sum(1 for e in self.state["problems"] for c in e["checks"] if not c["passed"])
+
+    def run(self) -> int:
+        """Run every problem; ExitCode.OK, 1 when a check fails, INTERRUPTED on Ctrl-C (the
+        points finished so far kept in results.json and report.md)."""
+        from .report import write_report
+
+        self.save()
+        total = len(self.problems)
+        try:
+            for i, (problem, entry) in enumerate(zip(self.problems, self.state["problems"]), 1):
+                t0 = time.perf_counter()
+                ladders = {m: problem.ladder(m, self.quick) for m in problem.methods}
+                log.info("[%d/%d] %s: %s; %d points (%s)", i, total, problem.name, problem.title, sum(map(len, ladders.values())),
+                         ", ".join(f"{m}: {problem.resolution_name} {' '.join(f'{r:g}' for r in rs)}" for m, rs in ladders.items()))
+                for method, ladder in ladders.items():
+                    if problem.kind == "curve" and ladder:
+                        self.warm_up(problem, method, ladder[0])
+                    for resolution in ladder:
+                        point = self.point(problem, method, resolution)
+                        entry["points"].append(point)
+                        self.update(problem, entry)
+                        self.save()
+                        log.debug("  %s %s = %g: error %s, %.3g s%s", method, problem.resolution_name, resolution, point["error"],
+                                  point["wall (s)"], f", FAILED: {point['failure']}" if "failure" in point else "")
+                failed = [c for c in entry["checks"] if not c["passed"]]
+                rates = ", ".join(f"{m} {r:.2f}" for m, r in entry["rates"].items() if r is not None and math.isfinite(r))
+                log.info("  %s: %.1f s%s; %d of %d checks pass%s", problem.name, time.perf_counter() - t0,
+                         f", fitted rates {rates}" if rates else "", len(entry["checks"]) - len(failed), len(entry["checks"]),
+                         "".join(f"\n  FAIL {c['method']}: {c['what']} = {c['value']!r}, band {c['band']}" for c in failed))
+        except KeyboardInterrupt:
+            self.state["status"] = "interrupted"
+            self.save()
+            write_report(self.state, self.out)
+            log.warning("interrupted: %s and report.md keep the %d point(s) finished", self.results_path,
+                        sum(len(e["points"]) for e in self.state["problems"]))
+            return int(ExitCode.INTERRUPTED)
+        self.state["status"] = "complete"
+        self.save()
+        write_report(self.state, self.out)
+        failed = self.state["failed checks"]
+        log.info("verify: %d problem(s) in %.1f s; %s; wrote %s and %s", total, self.state["wall (s)"],
+                 f"{failed} check(s) FAIL" if failed else "every check passes", self.results_path, self.out / "report.md")
+        return int(ExitCode.FAILURE) if failed else int(ExitCode.OK)
+
+
+def run_verify(names: Sequence[str] | None, out: str | Path, *, quick: bool = False, command: str = "peridyn verify") -> int:
+    """``peridyn verify``: run the named problems (all for None) into the folder ``out``; the
+    exit status (0 every band holds, 1 one fails, 130 interrupted). InputError for an unknown
+    name or an ``out`` that is a file."""
+    problems = select_problems(names)
+    out = Path(out)
+    prepare_out(out)
+    return Run(problems, out, quick=quick, command=command).run()

@@ -1,0 +1,116 @@
+"""The runner and report of ``peridyn verify`` on made-up problems (no peridyn physics)."""
+import json
+import logging
+import sys
+
+import pytest
+
+from peridyn.core.errors import ExitCode
+from peridyn.verify import Measurement, Problem, Run
+from peridyn.verify.report import write_report
+
+
+class Power(Problem):
+    """error = size^order; raises KeyboardInterrupt or an error at chosen points."""
+
+    name = "power"
+    title = "made-up power law"
+    computes = "size^order"
+    reference = "0"
+    resolution_name = "n"
+    size_name = "1/n"
+    methods = ("a", "b")
+    rate_band = {"a": (1.8, 2.2), "b": (1.8, 2.2)}
+    finest_band = {"a": 1e-2}
+
+    def __init__(self, order=2.0, interrupt_at=None, fail_at=None, out=None):
+        self.order, self.interrupt_at, self.fail_at, self.out = order, interrupt_at, fail_at, out
+        self.seen: list[int] = []
+
+    def ladder(self, method, quick):
+        return [4.0, 8.0, 16.0] if quick else [4.0, 8.0, 16.0, 32.0]
+
+    def measure(self, method, resolution, quick):
+        if self.out is not None:  # results.json holds every point finished before this one
+            self.seen.append(sum(len(e["points"]) for e in json.loads((self.out / "results.json").read_text())["problems"]))
+        if (method, resolution) == self.interrupt_at:
+            raise KeyboardInterrupt
+        if (method, resolution) == self.fail_at:
+            raise RuntimeError("boom")
+        return Measurement((1.0 / resolution) ** self.order, size=1.0 / resolution, steps=int(resolution), values={"x (m)": resolution})
+
+
+def load(out):
+    return json.loads((out / "results.json").read_text())
+
+
+def test_a_run_writes_every_point_rate_and_check(tmp_path):
+    assert Run([Power()], tmp_path, quick=True).run() == ExitCode.OK
+    data = load(tmp_path)
+    assert data["status"] == "complete" and data["quick"] is True and data["failed checks"] == 0
+    for key in ("platform", "cpu", "cores"):
+        assert data["machine"][key]
+    assert data["peridyn"]["version"] and data["date"]
+    entry = data["problems"][0]
+    assert [(p["method"], p["resolution"]) for p in entry["points"]] == [(m, r) for m in "ab" for r in (4.0, 8.0, 16.0)]
+    for p in entry["points"]:
+        assert p["wall (s)"] >= 0 and p["steps"] == int(p["resolution"]) and p["peak memory (MiB)"] > 0
+    assert entry["rates"] == {"a": pytest.approx(2.0), "b": pytest.approx(2.0)}
+    assert all(c["passed"] for c in entry["checks"]) and len(entry["checks"]) == 3
+    report = (tmp_path / "report.md").read_text()
+    assert "## power: made-up power law" in report and "**FAIL**" not in report and "| a | 4 |" in report
+
+
+def test_results_json_is_rewritten_after_every_point(tmp_path):
+    problem = Power(out=tmp_path)
+    Run([problem], tmp_path, quick=False).run()
+    # each measurement is preceded by the warm-up of its method's coarsest point
+    assert problem.seen == [0, 0, 1, 2, 3, 4, 4, 5, 6, 7]
+
+
+def test_an_interrupted_run_keeps_the_points_it_finished(tmp_path, caplog):
+    with caplog.at_level(logging.WARNING, logger="peridyn.verify"):
+        code = Run([Power(interrupt_at=("a", 16.0)), Power()], tmp_path, quick=True).run()
+    assert code == ExitCode.INTERRUPTED == 130
+    data = load(tmp_path)
+    assert data["status"] == "interrupted"
+    assert [p["resolution"] for p in data["problems"][0]["points"]] == [4.0, 8.0]
+    assert data["problems"][1]["points"] == []
+    assert "interrupted" in caplog.text
+    assert "Not run" in (tmp_path / "report.md").read_text()
+
+
+def test_a_rate_outside_its_band_fails(tmp_path):
+    assert Run([Power(order=1.0)], tmp_path, quick=True).run() == ExitCode.FAILURE
+    data = load(tmp_path)
+    failed = [c for c in data["problems"][0]["checks"] if not c["passed"]]
+    assert {c["what"].split(" at ")[0].split(" of ")[0] for c in failed} >= {"fitted rate"}
+    assert data["failed checks"] == len(failed) == 3  # both rates and a's finest error (1/16 > 1e-2)
+    assert "**FAIL**" in (tmp_path / "report.md").read_text()
+
+
+def test_a_point_that_raises_is_recorded_and_fails(tmp_path):
+    assert Run([Power(fail_at=("b", 8.0))], tmp_path, quick=True).run() == ExitCode.FAILURE
+    points = load(tmp_path)["problems"][0]["points"]
+    assert [p.get("failure") for p in points].count("RuntimeError: boom") == 1
+    assert "failed: RuntimeError: boom" in (tmp_path / "report.md").read_text()
+
+
+def test_report_without_matplotlib_says_how_to_get_figures(tmp_path, monkeypatch, caplog):
+    Run([Power()], tmp_path, quick=True).run()
+    for png in tmp_path.glob("*.png"):
+        png.unlink()
+    monkeypatch.setitem(sys.modules, "matplotlib", None)  # import matplotlib raises ImportError
+    with caplog.at_level(logging.WARNING, logger="peridyn.verify"):
+        path = write_report(load(tmp_path), tmp_path)
+    lines = [r.getMessage() for r in caplog.records if "figures skipped" in r.getMessage()]
+    assert len(lines) == 1 and 'pip install "peridyn[plot]"' in lines[0]
+    assert path.read_text().startswith("# peridyn verify") and "![" not in path.read_text()
+    assert not list(tmp_path.glob("*.png"))
+
+
+def test_report_with_matplotlib_draws_one_figure_per_curve_problem(tmp_path):
+    pytest.importorskip("matplotlib")
+    Run([Power()], tmp_path, quick=True).run()
+    assert (tmp_path / "power.png").stat().st_size > 1000
+    assert "![power: error against wall time](power.png)" in (tmp_path / "report.md").read_text()
