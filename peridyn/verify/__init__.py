@@ -2,7 +2,7 @@
 against wall time, fitted convergence rates and stability limits, checked against stated bands.
 
 - :mod:`.problems`: the problems (``PROBLEMS``: wave-speed, force-convergence, verlet-energy,
-  stability), each with what it computes, its exact or reference answer and its bands;
+  stability, extreme-cases, static-modulus, griffith), each with what it computes, its exact or reference answer and its bands;
 - :mod:`.runner`: runs the points serially, times them, rewrites ``results.json`` after each;
 - :mod:`.report`: ``report.md`` and the figures (``peridyn[plot]``: matplotlib);
 - :mod:`.fit`: fitted rates.

@@ -130,7 +130,7 @@ def write_report(state: dict[str, Any], out: Path, *, figures: bool = True) -> P
                     lines += [f"![{entry['name']}: error against wall time]({png.name})", ""]
         lines += ["| check | method | value | band | result |", "|---|---|---|---|---|"]
         for c in entry["checks"]:
-            lines.append(f"| {_cell(c['what'])} | {_cell(c['method'])} | {_fmt(c['value'])} | {c['band']} | {'pass' if c['passed'] else '**FAIL**'} |")
+            lines.append(f"| {_cell(c['what'])} | {_cell(c['method'])} | {_cell(c['shown']) if c.get('shown') else _fmt(c['value'])} | {c['band']} | {'pass' if c['passed'] else '**FAIL**'} |")
         lines.append("")
     path = out / "report.md"
     tmp = path.with_name("report.md.tmp")

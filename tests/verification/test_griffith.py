@@ -29,57 +29,7 @@ import pytest
 
 from peridyn.testing.harness import build_simulation
 
-E = 3.0e9  # Pa
-G0 = 300.0  # J/m^2
-NU = 1.0 / 3.0  # bond-based plane stress
-DX = 1.0e-3
-
-
-def tada(a: float, b: float) -> float:
-    r = a / b
-    return (1.0 - 0.025 * r**2 + 0.06 * r**4) * math.sqrt(1.0 / math.cos(math.pi * a / (2.0 * b)))
-
-
-def plate_deck(n: int = 60, m: float = 3.0, a_cells: int = 12, height_ratio: float = 2.0, eps: float = 1.0e-4, damage: dict | None = None):
-    """Deck tree and geometry of the centre-cracked plate (n points across, crack 2 a_cells dx,
-    horizon m dx, height height_ratio x width, grips one horizon thick, end strain eps)."""
-    W, H, h = n * DX, height_ratio * n * DX, DX
-    delta = m * DX * (1.0 + 1e-9)
-    grip = math.ceil(m) * DX
-    a = a_cells * DX
-    U = eps * H / 2.0
-    shapes = {
-        "Plate": {"Shape": "Box", "Block": "block_1", "Min": [-W / 2, -H / 2, 0.0], "Max": [W / 2, H / 2, h], "Spacing": DX},
-        "Top": {"Shape": "Box", "Block": "block_1", "Min": [-W / 2, H / 2, 0.0], "Max": [W / 2, H / 2 + grip, h], "Spacing": DX},
-        "Bottom": {"Shape": "Box", "Block": "block_1", "Min": [-W / 2, -H / 2 - grip, 0.0], "Max": [W / 2, -H / 2, h], "Spacing": DX},
-    }
-    crack = {
-        "Type": "Rectangular_Plane", "Normal_X": 0.0, "Normal_Y": 1.0, "Normal_Z": 0.0,
-        "Lower_Left_Corner_X": -a, "Lower_Left_Corner_Y": 0.0, "Lower_Left_Corner_Z": -h,
-        "Bottom_Unit_Vector_X": 1.0, "Bottom_Unit_Vector_Y": 0.0, "Bottom_Unit_Vector_Z": 0.0,
-        "Bottom_Length": 2 * a, "Side_Length": 3 * h,
-    }
-    contraction = f"{-NU * eps!r}*x*t"
-    tree = {
-        "Discretization": {"Type": "Shapes", "Shapes": shapes, "Bond Filters": {"Crack": crack}},
-        "Materials": {"M": {"Material Model": "Elastic Bond Based", "Density": 1200.0, "Young's Modulus": E, "Plane Stress": True, "Height": h}},
-        "Blocks": {"B": {"Block Names": "block_1", "Material": "M", "Horizon": delta}},
-        "Boundary Conditions": {
-            "TY": {"Type": "Prescribed Displacement", "Node Set": "Top", "Coordinate": "y", "Value": f"{U!r}*t"},
-            "BY": {"Type": "Prescribed Displacement", "Node Set": "Bottom", "Coordinate": "y", "Value": f"{-U!r}*t"},
-            "TX": {"Type": "Prescribed Displacement", "Node Set": "Top", "Coordinate": "x", "Value": contraction},
-            "BX": {"Type": "Prescribed Displacement", "Node Set": "Bottom", "Coordinate": "x", "Value": contraction},
-            **{f"Z {k}": {"Type": "Prescribed Displacement", "Node Set": k, "Coordinate": "z", "Value": "0.0"} for k in shapes},
-        },
-        "Solver": {
-            "Initial Time": 0.0, "Final Time": 1.0,
-            "QuasiStatic": {"Number of Load Steps": 1, "Relative Tolerance": 1.0e-10, "Linear Solver": "Direct"},
-        },
-    }
-    if damage is not None:
-        tree["Damage Models"] = {"D": damage}
-        tree["Blocks"]["B"]["Damage Model"] = "D"
-    return tree, {"W": W, "H": H, "h": h, "a": a, "delta": delta}
+from peridyn.verify.problems.griffith import DX, E, G0, plate_deck, tada  # the plate of `peridyn verify`
 
 
 def mean_stress(sim, g) -> float:

@@ -32,7 +32,9 @@ def test_verify_quick_passes(tmp_path):
                 assert lo <= entry["rates"][method] <= hi, (entry["name"], method, entry["rates"])
     report = (tmp_path / "report.md").read_text()
     assert "**FAIL**" not in report and all(f"## {name}:" in report for name in PROBLEMS)
-    for name in ("wave-speed", "force-convergence", "verlet-energy"):
+    extreme = next(e for e in data["problems"] if e["name"] == "extreme-cases")
+    assert {q["values"]["outcome"] for q in extreme["points"]} <= {"converged", "diagnosed"}, extreme["points"]
+    for name in ("wave-speed", "force-convergence", "verlet-energy", "static-modulus"):
         assert f"[{name}: error against wall time]({name}.png)" in report or "figures skipped" in p.stderr
     assert sum(line.startswith("[") for line in p.stderr.splitlines()) == len(PROBLEMS)  # a progress line per problem
 

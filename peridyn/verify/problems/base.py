@@ -34,12 +34,17 @@ class Check:
     value: float
     low: float = -math.inf
     high: float = math.inf
+    #: what the report shows instead of ``value`` (a table problem's outcome), and instead of the band
+    shown: str | None = None
+    expect: str | None = None
 
     @property
     def passed(self) -> bool:
         return math.isfinite(self.value) and self.low <= self.value <= self.high
 
     def band(self) -> str:
+        if self.expect is not None:
+            return self.expect
         if math.isinf(self.low):
             return f"<= {self.high:.3g}"
         if math.isinf(self.high):
