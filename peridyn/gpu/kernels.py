@@ -93,6 +93,20 @@ def prescribed_displacement(points, component, current, previous, rate, u, v):
         v[p, component] = du * rate
 
 
+@cuda.jit(device=True)
+def _block_sum(buf, t):
+    """buf[k, 0] = the sum of buf[k, :] over the block's threads (a tree, fixed order; every
+    thread of the block calls it)."""
+    cuda.syncthreads()
+    s = REDUCE_THREADS // 2
+    while s > 0:
+        if t < s:
+            for k in range(SUMS):
+                buf[k, t] += buf[k, t + s]
+        cuda.syncthreads()
+        s //= 2
+
+
 @cuda.jit(cache=True)
 def energy_partials(n, du, f_old, f_new, b_old, b_new, volume, free, v, mass, a, partial):
     """Per-block partial sums (``SUMS`` per block, row ``blockIdx.x`` of ``partial``) of the
@@ -135,14 +149,7 @@ def energy_partials(n, du, f_old, f_new, b_old, b_new, volume, free, v, mass, a,
     buf[3, t] = s_kin
     buf[4, t] = s_f
     buf[5, t] = s_shadow
-    cuda.syncthreads()
-    s = REDUCE_THREADS // 2
-    while s > 0:
-        if t < s:
-            for k in range(SUMS):
-                buf[k, t] += buf[k, t + s]
-        cuda.syncthreads()
-        s //= 2
+    _block_sum(buf, t)
     if t == 0:
         for k in range(SUMS):
             partial[cuda.blockIdx.x, k] = buf[k, 0]
@@ -160,14 +167,7 @@ def reduce_partials(partial, nblocks, out):
             acc += partial[r, k]
             r += REDUCE_THREADS
         buf[k, t] = acc
-    cuda.syncthreads()
-    s = REDUCE_THREADS // 2
-    while s > 0:
-        if t < s:
-            for k in range(SUMS):
-                buf[k, t] += buf[k, t + s]
-        cuda.syncthreads()
-        s //= 2
+    _block_sum(buf, t)
     if t == 0:
         for k in range(SUMS):
             out[k] = buf[k, 0]
