@@ -105,6 +105,7 @@ class NeighborList:
     _reverse: np.ndarray | None = field(default=None, init=False, repr=False)
     _transpose: tuple[np.ndarray, np.ndarray] | None = field(default=None, init=False, repr=False)
     _sources: np.ndarray | None = field(default=None, init=False, repr=False)
+    _derived: dict = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self) -> None:
         self.offsets = np.ascontiguousarray(self.offsets, dtype=np.int64)
@@ -205,6 +206,14 @@ class NeighborList:
             self._sources = np.repeat(np.arange(self.num_points, dtype=np.int32), self.counts())
         return self._sources
 
+    def derived(self, key: str, make):
+        """``make()`` computed once and kept with the list (arrays that depend only on the bonds
+        and on data fixed for the list's life, e.g. reference positions); None results are kept.
+        Arrays and tuples of arrays among them count in :meth:`nbytes`."""
+        if key not in self._derived:
+            self._derived[key] = make()
+        return self._derived[key]
+
     def nbytes(self) -> int:
         """Bytes held: offsets, neighbors and whichever derived arrays have been computed."""
         total = self.offsets.nbytes + self.neighbors.nbytes
@@ -214,6 +223,9 @@ class NeighborList:
             total += self._transpose[0].nbytes + self._transpose[1].nbytes
         if self._sources is not None:
             total += self._sources.nbytes
+        for value in self._derived.values():
+            for a in value if isinstance(value, tuple) else (value,):
+                total += getattr(a, "nbytes", 0)
         return int(total)
 
 

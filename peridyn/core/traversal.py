@@ -29,7 +29,10 @@ lengths (L), ``y`` (n, >=3) current positions in columns 0-2 (L; packed records 
 columns), ``out`` the law's output (below). Points ``[start, stop)`` are computed. A law with
 ``z_from_positions=True`` takes instead of ``zeta`` the reference positions (n, >=3) (e.g. columns
 of the same packed records as ``y``) and computes z = |x_j - x_i| as the engine computes
-``Bond_Length`` (the same bits): no bond-length stream to read, no bond-length field to hold.
+``Bond_Length`` (the same bits): no bond-length stream to read, no bond-length field to hold. A
+law with ``z_from_codes=True`` takes instead the pair ``(codes, table)`` of
+``peridyn.kernels.lengths.coded_lengths`` (a uint8 or uint16 code per bond into a table of the
+distinct lengths) and reads z = table[codes[b]], the same bits again, from one or two bytes a bond.
 """
 from __future__ import annotations
 
@@ -54,6 +57,7 @@ class PointSum:
     gate: Callable | None = None
     width: int = 1
     z_from_positions: bool = False
+    z_from_codes: bool = False
     allocates: bool = False
 
 
@@ -66,6 +70,7 @@ class BondMap:
     point: Callable | None = None
     width: int = 1
     z_from_positions: bool = False
+    z_from_codes: bool = False
     allocates: bool = False
 
 
@@ -81,6 +86,7 @@ class PairForce:
     point: Callable | None = None
     gate: Callable | None = None
     z_from_positions: bool = False
+    z_from_codes: bool = False
     allocates: bool = False
 
 
@@ -94,6 +100,7 @@ class PointMap:
     point: Callable
     width: int = 1
     z_from_positions: bool = False
+    z_from_codes: bool = False
     allocates: bool = False
 
 

@@ -17,7 +17,8 @@ from ..core.fields import FieldSpec, Relation
 from ..core.interfaces import BlockView, DamageModel
 from ..core.params import ModelParams
 from ..core.traversal import PointSum
-from ..kernels import compiled, empty
+from ..kernels import empty
+from ..kernels.lengths import compiled_with_lengths
 
 EMPTY = np.zeros(0)
 
@@ -113,7 +114,7 @@ class CriticalStretch(DamageModel):
         s, nl = block.fields, block.bonds
         dT = s["Temperature_Change"] if self.alpha_T is not None else empty(block)
         args = (self.s_c, s.n("Bond_Damage"), s["Bond_Damage"], self.copy_previous, dT, float(self.alpha_T or 0.0), s["Damage"], nl.offsets)
-        compiled(block, CRITICAL_STRETCH)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, s["Damage"])
+        compiled_with_lengths(block, CRITICAL_STRETCH)(block.start, block.stop, nl.offsets, nl.neighbors, s["Coordinates"], args, s["Damage"])
 
 
 class TimeDependentCriticalStretchParams(ModelParams):

@@ -38,7 +38,8 @@ from ..core.fields import FieldSpec, Relation, Temporal
 from ..core.interfaces import BlockView, DamageModel
 from ..core.params import ModelParams
 from ..core.traversal import PointSum
-from ..kernels import compiled, default_backend
+from ..kernels import default_backend
+from ..kernels.lengths import compiled_with_lengths
 
 log = logging.getLogger("peridyn.damage")
 EMPTY = np.zeros(0)
@@ -146,7 +147,7 @@ class InterfaceAware(DamageModel):
         dT = s["Temperature_Change"] if self.alpha_T is not None else EMPTY
         args = (self.s_c, s["Critical_Stretch"], s.n("Bond_Damage"), s["Bond_Damage"], dT, float(self.alpha_T or 0.0), self.rank_deficient,
                 self._new, nl.offsets)
-        compiled(block, INTERFACE_AWARE)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args,
+        compiled_with_lengths(block, INTERFACE_AWARE)(block.start, block.stop, nl.offsets, nl.neighbors, s["Coordinates"], args,
                                          s["Damage"])
         found = np.flatnonzero(self._new[block.start : block.stop]) + block.start
         if not found.size:

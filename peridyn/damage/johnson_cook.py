@@ -32,7 +32,8 @@ from ..core.influence import omega
 from ..core.interfaces import BlockView
 from ..core.params import ModelParams
 from ..core.traversal import PointSum
-from ..kernels import compiled, default_backend
+from ..kernels import default_backend
+from ..kernels.lengths import compiled_with_lengths
 from .von_mises_stress import EMPTY, BondStressDamage, neighbor_volume
 
 
@@ -143,5 +144,5 @@ class JohnsonCook(BondStressDamage):
                 s.np1("Bond_Equivalent_Plastic_Strain"), s["Bond_Stress_Triaxiality"], float(p.damage_parameter_1),
                 float(p.damage_parameter_2), float(p.damage_parameter_3), float(p.threshold_damage), float(p.critical_damage_to_neglect),
                 s.n("Bond_Damage_Parameter"), s["Bond_Damage_Parameter"], s["Bond_Damage"], s["Damage"], s["Flying_Point_Flag"])
-        compiled(block, JOHNSON_COOK)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args,
+        compiled_with_lengths(block, JOHNSON_COOK)(block.start, block.stop, nl.offsets, nl.neighbors, s["Coordinates"], args,
                                       s["Broken_Bond_Volume_Averaged"])

@@ -39,7 +39,8 @@ from ..core.influence import TABLE, omega
 from ..core.interfaces import BlockView, DamageModel
 from ..core.params import ModelParams
 from ..core.traversal import BondMap, PointSum
-from ..kernels import compiled, default_backend
+from ..kernels import default_backend
+from ..kernels.lengths import compiled_with_lengths
 
 EMPTY = np.zeros(0)
 STRESS = "Bond_Unrotated_Cauchy_Stress"
@@ -186,7 +187,7 @@ class BondStressDamage(DamageModel):
         if "Undamaged_Weighted_Volume" not in s:
             if self._m_u is None or self._m_u.shape[0] != s.num_points:
                 self._m_u = np.zeros(s.num_points)
-            compiled(block, REFERENCE_WEIGHTED_VOLUME)(lo, hi, nl.offsets, nl.neighbors, s["Bond_Length"], s["Model_Coordinates"],
+            compiled_with_lengths(block, REFERENCE_WEIGHTED_VOLUME)(lo, hi, nl.offsets, nl.neighbors, s["Model_Coordinates"],
                                                        (s["Volume"], s["Horizon"], block.influence.kind), self._m_u)
 
     def _inputs(self, block: BlockView) -> tuple[np.ndarray, np.ndarray]:
@@ -197,7 +198,7 @@ class BondStressDamage(DamageModel):
         # wrote is the array that was NP1 at the previous update (N after a completed step)
         src = self._last_stress if self._last_stress is not None else s.np1(STRESS)
         triax = s["Bond_Stress_Triaxiality"] if self.needs_triaxiality else EMPTY
-        compiled(block, BOND_INVARIANTS)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], (src, triax),
+        compiled_with_lengths(block, BOND_INVARIANTS)(block.start, block.stop, nl.offsets, nl.neighbors, s["Coordinates"], (src, triax),
                                          s["Bond_Von_Mises_Stress"])
         self._last_stress = s.np1(STRESS)
         J = s.n("Jacobian_Determinant") if "Jacobian_Determinant" in s else EMPTY
@@ -233,6 +234,6 @@ class VonMisesStress(BondStressDamage):
         args = (s["Volume"], J, s["Horizon"], block.influence.kind, m_u, s["Bond_Von_Mises_Stress"], float(p.critical_von_mises_stress),
                 float(p.critical_damage), float(p.threshold_damage), float(p.critical_damage_to_neglect), s.n("Bond_Damage"),
                 s["Bond_Damage"], s["Flying_Point_Flag"])
-        compiled(block, VON_MISES_DAMAGE)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args,
+        compiled_with_lengths(block, VON_MISES_DAMAGE)(block.start, block.stop, nl.offsets, nl.neighbors, s["Coordinates"], args,
                                           s["Broken_Bond_Volume_Averaged"])
         s["Damage"][block.start : block.stop] = s["Broken_Bond_Volume_Averaged"][block.start : block.stop]

@@ -165,6 +165,8 @@ def loop_body(law: Law, indent: str) -> str:
             "    dz = zeta[j, 2] - xi2",
             "    z = math.sqrt(dx * dx + dy * dy + dz * dz)",
         ]
+    elif law.z_from_codes:
+        lines.append("    z = ztable[zcodes[b]]")
     else:
         lines.append("    z = zeta[b]")
     lines += [
@@ -224,6 +226,8 @@ def point_loop(law: Law, loop: str) -> str:
     pre += ["yi0 = y[i, 0]", "yi1 = y[i, 1]", "yi2 = y[i, 2]"]
     if law.z_from_positions:
         pre += ["xi0 = zeta[i, 0]", "xi1 = zeta[i, 1]", "xi2 = zeta[i, 2]"]
+    elif law.z_from_codes:
+        pre += ["zcodes = zeta[0]", "ztable = zeta[1]"]
     body = "\n".join("        " + s for s in pre) + "\n" + loop_body(law, "        ") + "\n"
     body += "\n".join("        " + s for s in post)
     return f"    {loop}\n{body}\n"

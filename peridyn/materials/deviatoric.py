@@ -51,7 +51,7 @@ from ..core.influence import omega
 from ..core.interfaces import BlockView, ElasticModuli, Material
 from ..core.params import UsedWhen
 from ..core.traversal import BondMap, PairForce, PointSum
-from ..kernels import compiled
+from ..kernels.lengths import compiled_with_lengths
 from .elastic import DILATATION, WEIGHTED_VOLUME
 from .moduli import IsotropicElasticParams, isotropic_moduli
 
@@ -468,8 +468,8 @@ class DeviatoricStateMaterial(Material):
         if block.influence.needs_table:
             self.omega_table = block.influence.table_for(nl.offsets, nl.neighbors, s["Model_Coordinates"], np.arange(block.start, block.stop), block.horizon)
         kind, delta, table = self._common(block)
-        compiled(block, WEIGHTED_VOLUME)(
-            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Model_Coordinates"], (s["Volume"], kind, delta, table), s["Weighted_Volume"]
+        compiled_with_lengths(block, WEIGHTED_VOLUME)(
+            block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], (s["Volume"], kind, delta, table), s["Weighted_Volume"]
         )
 
     def precompute(self, block: BlockView) -> None:
@@ -477,7 +477,7 @@ class DeviatoricStateMaterial(Material):
         s, nl = block.fields, block.bonds
         kind, delta, table = self._common(block)
         args = (s["Volume"], s["Weighted_Volume"], kind, delta, table, self._damage(block), EMPTY, 0.0)
-        compiled(block, DILATATION)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, s["Dilatation"])
+        compiled_with_lengths(block, DILATATION)(block.start, block.stop, nl.offsets, nl.neighbors, s["Coordinates"], args, s["Dilatation"])
 
     def _reverse(self, block: BlockView) -> np.ndarray | None:
         """The reverse-bond index when the fused kernel can compute both ends of the view's

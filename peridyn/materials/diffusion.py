@@ -46,7 +46,7 @@ from ..core.fields import FieldSpec, Relation
 from ..core.interfaces import BlockView, Material
 from ..core.params import ModelParams
 from ..core.traversal import PointSum
-from ..kernels import compiled
+from ..kernels.lengths import compiled_with_lengths
 
 EMPTY = np.zeros(0)
 
@@ -235,8 +235,8 @@ class Diffusion(Material):
         s = block.fields
         nl = block.bonds
         args = (s["Volume"], s["Temperature"], self._weights(block), self.kappa, float(self.horizon))
-        compiled(block, FLUX_DIVERGENCE)(
-            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Model_Coordinates"], args, s["Flux_Divergence"]
+        compiled_with_lengths(block, FLUX_DIVERGENCE)(
+            block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], args, s["Flux_Divergence"]
         )
         Q = s["Flux_Divergence"][block.start : block.stop]
         if not np.isfinite(Q).all():
@@ -255,7 +255,7 @@ class Diffusion(Material):
         diag = np.zeros(s.num_points)
         args = (s["Volume"], self._weights(block), self.kappa, float(self.horizon), bond_pos, data)
         law = FLUX_JACOBIAN_WEIGHTED if self.improved else FLUX_JACOBIAN
-        compiled(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Model_Coordinates"], args, diag)
+        compiled_with_lengths(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], args, diag)
         data[diag_pos[row_of_local[block.start : block.stop]]] = diag[block.start : block.stop]
 
     # -- the force interface: no force -------------------------------------------------------------

@@ -30,6 +30,7 @@ from ..core.interfaces import BlockView, ElasticModuli, Material
 from ..core.params import UsedWhen
 from ..core.traversal import BondMap, PairForce, PointMap, PointSum
 from ..kernels import compiled, empty, on_host, resident
+from ..kernels.lengths import coded_lengths, reference_lengths
 from ..kernels.packing import pack_points_kernel, reach_kernel
 from .moduli import IsotropicElasticParams, isotropic_moduli
 
@@ -247,6 +248,8 @@ PAIR_FORCE_DAMAGE_PLAIN = PairForce(pair_force_damage_plain, point=packed_point,
 # reads Bond_Length anyway.
 POSITIONS_MIN_BONDS = 2_500_000
 LENGTHS_FROM_X = {law: replace(law, z_from_positions=True) for law in (DILATATION_PLAIN, PAIR_FORCE_PLAIN, PAIR_FORCE_DAMAGE_PLAIN)}
+# Every law reads coded lengths instead where the mesh has few distinct ones (a lattice;
+# peridyn.kernels.lengths): no square root and one or two bytes a bond, the same bits.
 STORED_ENERGY = PointSum(stored_energy_term, point=energy_point, finish=stored_energy_finish, z_from_positions=True)  # zeta: x
 
 
@@ -270,7 +273,8 @@ COEFFICIENTS = PointMap(coefficients_of_point, width=2)
 
 
 # Packed point records for the hot kernels: row i of P (n_local, 9) holds (y_x, y_y, y_z, a_i,
-# c_i, V_i, x_x, x_y, x_z) in one 72-byte record, so a neighbor costs one or two cache lines
+# c_i, V_i, x_x, x_y, x_z) in one 72-byte record (the first six, 48 bytes, when the bond lengths
+# are coded: x is then never read), so a neighbor costs one or two cache lines
 # instead of one per array (y, a, c, V, x). On cube40 (7.15 M bonds) packing y, a, c, V made a step
 # 8 % faster on one core and much less slowed by a busy second core; taking |xi| from the
 # record's x instead of reading Bond_Length (8 bytes a bond, never allocated then) made the force
@@ -278,6 +282,7 @@ COEFFICIENTS = PointMap(coefficients_of_point, width=2)
 # ranges, owned rows and ghost rows (``Elastic._reach``); x is written once.
 PACK_WIDTH = 9
 X_COLUMNS = slice(6, 9)
+PACK_WIDTH_CODED = 6  # with coded bond lengths x is never read: 48-byte records (cube40: 6-12 % faster loops)
 PACK_MIN_ROWS = 64  # smaller views (the finite-difference tangent's single points) read the arrays
 
 
@@ -374,7 +379,8 @@ class Elastic(Material):
         _, s_c, copy_previous = self._damage_model.bond_rule()
         P = self._packed(block, False)
         args = (P, s["Weighted_Volume"], kind, delta, table, s_c, s.n("Bond_Damage"), s["Bond_Damage"], copy_previous, s["Damage"], nl.offsets)
-        compiled(block, DILATATION_STRETCH_DAMAGE)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], P, args, s["Dilatation"])
+        law, zeta = self._lengths(block, DILATATION_STRETCH_DAMAGE, P)
+        compiled(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, zeta, P, args, s["Dilatation"])
 
     def precompute(self, block: BlockView) -> None:
         s, nl = block.fields, block.bonds
@@ -387,14 +393,18 @@ class Elastic(Material):
             compiled(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, zeta, P, (P, s["Weighted_Volume"]), s["Dilatation"])
             return
         args = (s["Volume"], s["Weighted_Volume"], kind, delta, table, damage, dT, aT)
-        compiled(block, DILATATION)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, s["Dilatation"])
+        law, zeta = reference_lengths(block, DILATATION)
+        compiled(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, zeta, s["Coordinates"], args, s["Dilatation"])
 
     def _lengths(self, block: BlockView, law, P: np.ndarray):
-        """The packed-record law and its ``zeta``: Bond_Length, or from POSITIONS_MIN_BONDS
-        local bonds up (and while no other code has made Bond_Length) the records' x."""
-        if block.bonds.num_bonds >= POSITIONS_MIN_BONDS and not block.fields.allocated("Bond_Length"):
+        """The packed-record law and its ``zeta`` (the same bits every way): the coded lengths
+        of a mesh with few distinct ones (while no other code has made Bond_Length); else
+        Bond_Length, or from POSITIONS_MIN_BONDS local bonds up (and while no other code has made
+        Bond_Length) the records' x."""
+        if (not block.fields.allocated("Bond_Length") and block.bonds.num_bonds >= POSITIONS_MIN_BONDS
+                and law in LENGTHS_FROM_X and coded_lengths(block) is None):
             return LENGTHS_FROM_X[law], P[:, X_COLUMNS]
-        return law, block.fields["Bond_Length"]
+        return reference_lengths(block, law)
 
     def _reach(self, block: BlockView) -> tuple[int, int, int, int]:
         """The rows the bonds of ``block`` reach, with its own: [lo1, hi1) owned, [lo2, hi2) ghosts."""
@@ -411,8 +421,11 @@ class Elastic(Material):
         s = block.fields
         n = s.num_points
         if self._P is None or self._P.shape[0] != n:
-            self._P = np.zeros((n, PACK_WIDTH))
-            self._P[:, X_COLUMNS] = s["Model_Coordinates"]
+            if coded_lengths(block) is None:
+                self._P = np.zeros((n, PACK_WIDTH))
+                self._P[:, X_COLUMNS] = s["Model_Coordinates"]
+            else:
+                self._P = np.zeros((n, PACK_WIDTH_CODED))
         lo1, hi1, lo2, hi2 = self._reach(block)
         if coefficients:
             pack_force_points_kernel(lo1, hi1, lo2, hi2, s["Coordinates"], s["Volume"], s["Weighted_Volume"], s["Dilatation"], self.K, self.mu, self._P)
@@ -447,7 +460,8 @@ class Elastic(Material):
         dT, aT = self._dT(block)
         a, c = self._coefficients(block)
         args = (a, c, kind, delta, table, self._damage(block), dT, aT)
-        compiled(block, FORCE_STATE)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, t)
+        law, zeta = reference_lengths(block, FORCE_STATE)
+        compiled(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, zeta, s["Coordinates"], args, t)
 
     def force_fused(self, block: BlockView, force_density: np.ndarray) -> bool:
         s, nl = block.fields, block.bonds
@@ -468,7 +482,8 @@ class Elastic(Material):
             return True
         a, c = self._coefficients(block, reach=True)
         args = (a, c, s["Volume"], kind, delta, table, damage, reverse, dT, aT)
-        compiled(block, PAIR_FORCE)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, force_density)
+        law, zeta = reference_lengths(block, PAIR_FORCE)
+        compiled(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, zeta, s["Coordinates"], args, force_density)
         return True
 
     def tangent(self, block: BlockView, target) -> bool:

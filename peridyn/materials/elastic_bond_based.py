@@ -24,6 +24,7 @@ from ..core.interfaces import BlockView, ElasticModuli, Material
 from ..core.params import ModelParams, UsedWhen
 from ..core.traversal import BondMap, PairForce, PointSum
 from ..kernels import compiled, empty
+from ..kernels.lengths import reference_lengths
 from .moduli import bulk_and_shear
 
 EMPTY = np.zeros(0)
@@ -149,14 +150,16 @@ class ElasticBondBased(Material):
 
     def force_state(self, block: BlockView, t: np.ndarray) -> None:
         s, nl = block.fields, block.bonds
-        compiled(block, FORCE_STATE)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], (self.c, self._damage(block)), t)
+        law, zeta = reference_lengths(block, FORCE_STATE)
+        compiled(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, zeta, s["Coordinates"], (self.c, self._damage(block)), t)
 
     def force_fused(self, block: BlockView, force_density: np.ndarray) -> bool:
         s, nl = block.fields, block.bonds
         damage = self._damage(block)
         reverse = nl.reverse() if damage.shape[0] and not block.damage_symmetric else empty(block, EMPTY_INDEX.dtype)
         args = (self.c, damage, reverse, s["Volume"])
-        compiled(block, PAIR_FORCE)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, force_density)
+        law, zeta = reference_lengths(block, PAIR_FORCE)
+        compiled(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, zeta, s["Coordinates"], args, force_density)
         return True
 
     tangent_coupling = "pairs"
@@ -177,4 +180,5 @@ class ElasticBondBased(Material):
     def stored_energy_density(self, block: BlockView, out: np.ndarray) -> None:
         s, nl = block.fields, block.bonds
         args = (self.c, self._damage(block), s["Volume"])
-        compiled(block, STORED_ENERGY)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, out)
+        law, zeta = reference_lengths(block, STORED_ENERGY)
+        compiled(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, zeta, s["Coordinates"], args, out)

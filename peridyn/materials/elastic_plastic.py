@@ -29,6 +29,7 @@ from ..core.fields import FieldSpec, Relation, Temporal
 from ..core.params import UsedWhen
 from ..core.interfaces import BlockView
 from ..kernels import compiled
+from ..kernels.lengths import compiled_with_lengths
 from .deviatoric import (
     EMPTY,
     PERFECT,
@@ -108,7 +109,7 @@ class ElasticPlastic(DeviatoricStateMaterial):
             s["Volume"], s["Weighted_Volume"], s["Dilatation"], self.K, self.mu, self._scf(block), self.Y, self.H, self.hardening,
             self._damage(block), s.n("Deviatoric_Plastic_Extension"), s.n("Lambda"), self._pp,
         )
-        compiled(block, PLASTIC_POINTS)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, s["Lambda"])
+        compiled_with_lengths(block, PLASTIC_POINTS)(block.start, block.stop, nl.offsets, nl.neighbors, s["Coordinates"], args, s["Lambda"])
         return self._pp
 
     def force_state(self, block: BlockView, t: np.ndarray) -> None:
@@ -116,7 +117,7 @@ class ElasticPlastic(DeviatoricStateMaterial):
         s, nl = block.fields, block.bonds
         pp = self._return_map(block)
         args = (s["Dilatation"], pp, self.hardening, self._damage(block), s.n("Deviatoric_Plastic_Extension"), s["Deviatoric_Plastic_Extension"])
-        compiled(block, PLASTIC_FORCE_STATE)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, t)
+        compiled_with_lengths(block, PLASTIC_FORCE_STATE)(block.start, block.stop, nl.offsets, nl.neighbors, s["Coordinates"], args, t)
 
     def force_fused(self, block: BlockView, force_density: np.ndarray) -> bool:
         """Both ends of every bond in one pass (no force-state array, no gather), after the pass

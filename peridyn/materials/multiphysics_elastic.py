@@ -36,7 +36,7 @@ from ..core.fields import FieldSpec, Relation
 from ..core.influence import ONE, omega
 from ..core.interfaces import BlockView, ElasticModuli, Material
 from ..core.traversal import BondMap, PointSum
-from ..kernels import compiled
+from ..kernels.lengths import compiled_with_lengths
 from .elastic import DILATATION, EMPTY, WEIGHTED_VOLUME, dilatation_finish
 from .moduli import IsotropicElasticParams, isotropic_moduli
 
@@ -332,8 +332,8 @@ class MultiphysicsElastic(Material):
         if block.influence.needs_table:
             self.omega_table = block.influence.table_for(nl.offsets, nl.neighbors, s["Model_Coordinates"], np.arange(block.start, block.stop), float(self.horizon))
         kind, delta, table = self._common(block)
-        compiled(block, WEIGHTED_VOLUME)(
-            block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Model_Coordinates"], (s["Volume"], kind, delta, table), s["Weighted_Volume"]
+        compiled_with_lengths(block, WEIGHTED_VOLUME)(
+            block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], (s["Volume"], kind, delta, table), s["Weighted_Volume"]
         )
         if self.params.apply_shear_correction_factor:
             from .elastic_plastic_hardening import shear_correction_kernel
@@ -352,7 +352,7 @@ class MultiphysicsElastic(Material):
         dT, aT = self._dT(block)
         args = (s["Volume"], s["Weighted_Volume"], kind, delta, table, self._damage(block), dT, aT)
         law = DILATATION_PLAIN if self._plain(block) else DILATATION
-        compiled(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, s["Dilatation"])
+        compiled_with_lengths(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, s["Coordinates"], args, s["Dilatation"])
 
     def force_state(self, block: BlockView, t: np.ndarray) -> None:
         s, nl = block.fields, block.bonds
@@ -361,7 +361,7 @@ class MultiphysicsElastic(Material):
         args = (s["Weighted_Volume"], s["Dilatation"], self.scf(block), s["Fluid_Pressure_Y"], self.K, self.mu, kind, delta, table,
                 self._damage(block), dT, aT)
         law = COUPLED_FORCE_STATE_PLAIN if self._plain(block) else COUPLED_FORCE_STATE
-        compiled(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, t)
+        compiled_with_lengths(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, s["Coordinates"], args, t)
         self.flow_state(block)
 
     def stored_energy_density(self, block: BlockView, out: np.ndarray) -> None:
@@ -370,7 +370,7 @@ class MultiphysicsElastic(Material):
         dT, aT = self._dT(block)
         args = (s["Model_Coordinates"], s["Volume"], s["Weighted_Volume"], self.K, s["Dilatation"], self.mu, kind, delta, table,
                 self._damage(block), dT, aT, self.scf(block))
-        compiled(block, COUPLED_STORED_ENERGY)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, out)
+        compiled_with_lengths(block, COUPLED_STORED_ENERGY)(block.start, block.stop, nl.offsets, nl.neighbors, s["Coordinates"], args, out)
 
     def flow_state(self, block: BlockView) -> None:
         """The per-bond flow q (field ``Fluid_Flow_Bond``) of the block's points' bonds."""
@@ -379,7 +379,7 @@ class MultiphysicsElastic(Material):
         c_T, k, rho_f, mu_f, k_max, a_p, d_c = self.flow_parameters()
         q = s[FLOW_BOND_FIELD]
         args = (s["Fluid_Pressure_Y"], self._damage(block), dT, c_T, k, rho_f, mu_f, k_max, a_p, d_c, float(self.horizon))
-        compiled(block, FLOW)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], args, q)
+        compiled_with_lengths(block, FLOW)(block.start, block.stop, nl.offsets, nl.neighbors, s["Coordinates"], args, q)
         if not np.isfinite(q[nl.offsets[block.start] : nl.offsets[block.stop]]).all():
             from ..core.errors import InstabilityError
 

@@ -36,7 +36,7 @@ from ..core.errors import InputError
 from ..core.fields import FieldSpec, Relation, Temporal
 from ..core.influence import NAMED
 from ..core.interfaces import BlockView, ElasticModuli, Material
-from ..kernels import compiled
+from ..kernels.lengths import compiled_with_lengths
 from . import pals_kernels as kern
 from .moduli import IsotropicElasticParams, isotropic_moduli
 
@@ -150,7 +150,7 @@ class Pals(Material):
         """``law`` over the block's points: on the current bonds, or on the reference ones."""
         s, nl = block.fields, block.bonds
         y = s["Model_Coordinates"] if reference else s["Coordinates"]
-        compiled(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], y, args, out)
+        compiled_with_lengths(block, law)(block.start, block.stop, nl.offsets, nl.neighbors, y, args, out)
 
     def precompute(self, block: BlockView) -> None:
         """Dilatation theta_i and the Pals pressure p_i of the block's points."""

@@ -28,6 +28,7 @@ from pydantic import Field
 from ..core.fields import FieldSpec, Relation, Temporal
 from ..core.interfaces import BlockView
 from ..kernels import compiled
+from ..kernels.lengths import compiled_with_lengths
 from .deviatoric import (
     VISCO,
     VISCO_FORCE_STATE,
@@ -74,7 +75,7 @@ class Viscoelastic(DeviatoricStateMaterial):
     def force_state(self, block: BlockView, t: np.ndarray) -> None:
         """t (nb,) of the view's bonds (M L^-5 T^-2), their new back extension and extension."""
         s, nl = block.fields, block.bonds
-        compiled(block, VISCO_FORCE_STATE)(block.start, block.stop, nl.offsets, nl.neighbors, s["Bond_Length"], s["Coordinates"], self._args(block), t)
+        compiled_with_lengths(block, VISCO_FORCE_STATE)(block.start, block.stop, nl.offsets, nl.neighbors, s["Coordinates"], self._args(block), t)
 
     def force_fused(self, block: BlockView, force_density: np.ndarray) -> bool:
         """Both ends of every bond in one pass (no force-state array, no gather)."""
