@@ -3,14 +3,21 @@ from __future__ import annotations
 
 from .bar import ForceConvergence, WaveSpeed
 from .base import Check, Measurement, Problem
+from .dispersion import Dispersion
 from .dynamics import Stability, VerletEnergy
 from .extreme import ExtremeCases
+from .families import Diffusion, PlasticityUniaxial, ViscoelasticRelaxation
 from .griffith import Griffith
+from .newmark import NewmarkEnergy
 from .static import StaticModulus
 
 #: name -> class, in the order ``peridyn verify`` runs them
 PROBLEMS: dict[str, type[Problem]] = {
-    cls.name: cls for cls in (WaveSpeed, ForceConvergence, VerletEnergy, Stability, ExtremeCases, StaticModulus, Griffith)
+    cls.name: cls
+    for cls in (
+        WaveSpeed, Dispersion, ForceConvergence, VerletEnergy, NewmarkEnergy, Stability, ExtremeCases, StaticModulus,
+        Griffith, Diffusion, ViscoelasticRelaxation, PlasticityUniaxial,
+    )
 }
 
 __all__ = ["PROBLEMS", "Check", "Measurement", "Problem"]

@@ -43,7 +43,7 @@ def bar(m: float, length: float, material: dict[str, Any] | None = None):
     return build_simulation(tree), n * h
 
 
-def _force(sim, displacement: np.ndarray) -> np.ndarray:
+def model_force(sim, displacement: np.ndarray) -> np.ndarray:
     """x-force density (N/m^3) for the x-displacement ``displacement`` (m) at every point."""
     x = sim.fields["Model_Coordinates"]
     sim.fields["Coordinates"][:] = x
@@ -84,8 +84,8 @@ class ForceConvergence(Problem):
         sim, length = bar(resolution, self.LENGTH)
         k = 2.0 * math.pi / self.LENGTH
         x = sim.fields["Model_Coordinates"][:, 0]
-        _force(sim, self.AMPLITUDE * np.sin(k * x))  # the first evaluation compiles nothing new, but warms caches
-        f = _force(sim, self.AMPLITUDE * np.sin(k * x))
+        model_force(sim, self.AMPLITUDE * np.sin(k * x))  # the first evaluation compiles nothing new, but warms caches
+        f = model_force(sim, self.AMPLITUDE * np.sin(k * x))
         inside = (x > DELTA) & (x < length - DELTA)
         exact = -2.0 * micromodulus() * self.AMPLITUDE * np.sin(k * x) * cin(k * DELTA)
         err = float(np.abs(f[inside] - exact[inside]).max() / np.abs(exact).max())
@@ -152,7 +152,7 @@ class WaveSpeed(Problem):
             inside = np.all((x >= lo - 1e-9 * h) & (x <= hi + 1e-9 * h), axis=1)
             c0 = ref = math.sqrt((K + 4.0 * self.SHEAR / 3.0) / RHO)
         u = 1.0e-6 * np.sin(k * x[:, 0] + 0.3)
-        f = _force(sim, u)
+        f = model_force(sim, u)
         w2 = -float(np.dot(f[inside], u[inside])) / (RHO * float(np.dot(u[inside], u[inside])))
         speed = math.sqrt(w2) / k if w2 > 0 else 0.0
         values = {"c (m/s)": speed, "c0 (m/s)": c0, "c/c0 - 1": speed / c0 - 1.0, "points": len(x), "bonds": int(sim.bonds.num_bonds)}
