@@ -19,7 +19,7 @@ from ..core.errors import InputError, InstabilityError
 from ..core.interfaces import Solver
 from ..core.params import ModelParams
 from .progress import Progress
-from .common import SUSPECT_BALANCE_ERROR, EnergyMonitor, SolverSection, count_steps
+from .common import EnergyMonitor, SolverSection, count_steps, judge_energy
 
 log = logging.getLogger("peridyn.solver")
 
@@ -204,13 +204,6 @@ class Verlet(Solver):
             progress.update(step)
         monitor.flush()
         progress.close()
-        if monitor.accounting and monitor.max_error > SUSPECT_BALANCE_ERROR and monitor.max_scale > monitor.floor:
-            log.warning(
-                "%s: the energy of the run was off by up to %.1f%% (velocity Verlet's energy error, bounded in a stable run: "
-                "the vibrations that carry the energy are resolved by few steps per period; accurate runs stay below 1%%): "
-                "a smaller 'Safety Factor' gives a more accurate answer",
-                self.section, 100.0 * monitor.max_error,
-            )
         wall = _time.perf_counter() - wall0
         log.debug("%s: energy monitor: largest C/S %.4g, largest (K - C)/S %.4g, start energy known %s", self.section,
                   monitor.resolution, monitor.max_excess, monitor.start_known)
@@ -229,6 +222,8 @@ class Verlet(Solver):
                 "energy": monitor.account(),
             }
         )
+        p = self.params.verlet
+        judge_energy(monitor, self.section, dt, dt_crit, fixed_dt=p.fixed_dt is not None or p.safety_factor is None)
 
 
 @njit(cache=True, parallel=True)

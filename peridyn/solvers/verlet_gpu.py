@@ -19,7 +19,7 @@ from ..core.errors import InstabilityError
 from ..gpu import kernels as K
 from ..gpu.conditions import DeviceConditions
 from ..gpu.state import DeviceModel
-from .common import SUSPECT_BALANCE_ERROR, EnergyMonitor
+from .common import EnergyMonitor, judge_energy
 from .progress import Progress
 
 log = logging.getLogger("peridyn.solver")
@@ -189,9 +189,6 @@ def run(solver, sim) -> None:
         contact.to_host()
     monitor.flush()
     progress.close()
-    if monitor.accounting and monitor.max_error > SUSPECT_BALANCE_ERROR and monitor.max_scale > monitor.floor:
-        log.warning("%s: the energy of the run was off by up to %.1f%%: a smaller 'Safety Factor' gives a more accurate answer",
-                    solver.section, 100.0 * monitor.max_error)
     sim.stats.setdefault("solvers", []).append(
         {
             "section": solver.section,
@@ -210,3 +207,5 @@ def run(solver, sim) -> None:
             "energy": monitor.account(),
         }
     )
+    p = solver.params.verlet
+    judge_energy(monitor, solver.section, dt, dt_crit, fixed_dt=p.fixed_dt is not None or p.safety_factor is None)

@@ -126,3 +126,11 @@ def test_a_wrong_unit_conversion_is_a_fail(tmp_path):
     assert out.answer > 1e-2
     good = classify([run_deck(mm_impact(4), tmp_path / "right")], scale_judge(lambda: reference, 1.0e3, "1000"))
     assert good.outcome == CONVERGED and good.answer < 1e-9 and not math.isnan(good.answer), good
+
+
+def test_a_body_no_larger_than_its_horizon_ends_diagnosed_not_done():
+    """Stable, but half its energy lost at half the estimate: exit 3 naming the fix, not exit 0."""
+    from peridyn.verify.problems.extreme import SMALL_BODY, DIAGNOSED
+
+    out, runs = ExtremeCases().run_case(SMALL_BODY, 5)
+    assert out.outcome == DIAGNOSED and runs[0].rc == 3 and "energy was off" in out.why, out
