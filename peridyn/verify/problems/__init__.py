@@ -8,6 +8,7 @@ from .dynamics import Stability, VerletEnergy
 from .extreme import ExtremeCases
 from .families import Diffusion, PlasticityUniaxial, ViscoelasticRelaxation
 from .griffith import Griffith
+from .j_integral import JIntegral
 from .newmark import NewmarkEnergy
 from .static import StaticModulus
 
@@ -16,7 +17,7 @@ PROBLEMS: dict[str, type[Problem]] = {
     cls.name: cls
     for cls in (
         WaveSpeed, Dispersion, ForceConvergence, VerletEnergy, NewmarkEnergy, Stability, ExtremeCases, StaticModulus,
-        Griffith, Diffusion, ViscoelasticRelaxation, PlasticityUniaxial,
+        Griffith, JIntegral, Diffusion, ViscoelasticRelaxation, PlasticityUniaxial,
     )
 }
 
