@@ -71,6 +71,7 @@ from ..core.interfaces import Solver
 from ..core.params import ModelParams
 from .common import SolverSection
 from .linalg.linear import (
+    LU_ORDERING,
     SolveResult,
     cg_direction_kernel,
     gmres,
@@ -376,11 +377,11 @@ class DiffusionLinearSolver:
             if comm is not None:
                 M = A.gather_to_root()
                 full = A.gather_vector(b)
-                xf = spla.splu(M.tocsc()).solve(full) if M is not None else None
+                xf = spla.splu(M.tocsc(), permc_spec=LU_ORDERING).solve(full) if M is not None else None
                 self.setup_time += _time.perf_counter() - t0
                 x = A.scatter_vector(xf)
             else:
-                lu = spla.splu(A.to_scipy().tocsc())
+                lu = spla.splu(A.to_scipy().tocsc(), permc_spec=LU_ORDERING)
                 self.setup_time += _time.perf_counter() - t0
                 x = lu.solve(b)
             ok = bool(np.all(np.isfinite(x)))
