@@ -10,13 +10,14 @@ from .families import Diffusion, PlasticityUniaxial, ViscoelasticRelaxation
 from .griffith import Griffith
 from .j_integral import JIntegral
 from .newmark import NewmarkEnergy
+from .parallel import ParallelAgreement
 from .static import StaticModulus
 
 #: name -> class, in the order ``peridyn verify`` runs them
 PROBLEMS: dict[str, type[Problem]] = {
     cls.name: cls
     for cls in (
-        WaveSpeed, Dispersion, ForceConvergence, VerletEnergy, NewmarkEnergy, Stability, ExtremeCases, StaticModulus,
+        WaveSpeed, Dispersion, ForceConvergence, VerletEnergy, NewmarkEnergy, Stability, ParallelAgreement, ExtremeCases, StaticModulus,
         Griffith, JIntegral, Diffusion, ViscoelasticRelaxation, PlasticityUniaxial,
     )
 }

@@ -11,7 +11,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -127,9 +127,11 @@ def _last(text: str) -> str:
     return lines[-1][:300] if lines else "(no output)"
 
 
-def run_deck(tree: dict[str, Any], directory: Path, files: dict[str, str] | None = None, timeout: float = TIMEOUT) -> RunResult:
+def run_deck(tree: dict[str, Any], directory: Path, files: dict[str, str] | None = None, timeout: float = TIMEOUT,
+             launcher: Sequence[str] = ()) -> RunResult:
     """Write ``tree`` (and ``files``) into ``directory`` and run ``peridyn run`` on it in a
-    subprocess; read the Exodus output ``out.e`` when there is one."""
+    subprocess (after ``launcher``, e.g. ``mpiexec -n 2``); read the Exodus output ``out.e``
+    when there is one."""
     from ...deck.files import dump_yaml
 
     directory.mkdir(parents=True, exist_ok=True)
@@ -140,7 +142,7 @@ def run_deck(tree: dict[str, Any], directory: Path, files: dict[str, str] | None
     env = dict(os.environ, PERIDYN_NO_PROGRESS="1")
     t0 = time.perf_counter()
     try:
-        p = subprocess.run([sys.executable, "-m", "peridyn", "run", str(deck), "--output-dir", str(directory), "--no-progress"],
+        p = subprocess.run([*launcher, sys.executable, "-m", "peridyn", "run", str(deck), "--output-dir", str(directory), "--no-progress"],
                            capture_output=True, text=True, timeout=timeout, cwd=directory, env=env)
         rc, stderr = p.returncode, p.stderr
     except subprocess.TimeoutExpired as exc:
