@@ -58,6 +58,10 @@ def figure(entry: dict[str, Any], path: Path, plt) -> bool:
         for p in pts:
             ax.annotate(f"{p['resolution']:g}", (p["wall (s)"], p["error"]), textcoords="offset points", xytext=(4, 4), fontsize=7)
         drawn = True
+    for q in entry.get("peridigm", []):
+        if q.get("error") and q["error"] > 0 and q.get("wall (s)", 0) > 0:
+            ax.loglog([q["wall (s)"]], [q["error"]], "k*", markersize=11, label=f"Peridigm: {q['method']}")
+            drawn = True
     if drawn:
         ax.set_xlabel("wall time (s)")
         ax.set_ylabel(entry["error"])
@@ -119,6 +123,8 @@ def write_report(state: dict[str, Any], out: Path, *, figures: bool = True) -> P
             lines += ["Not run (the run was interrupted before it)." if state["status"] == "interrupted" else "No points.", ""]
             continue
         lines += _table(entry) + [""]
+        for q in entry.get("peridigm", []):
+            lines += [f"Peridigm's own point ({q['method']}): {entry['error']} {_fmt(q['error'])} in {_fmt(q['wall (s)'])} s; {q['what']}", ""]
         if entry["kind"] == "curve":
             rates = [f"{meth}: {_fmt(r)}" if r is not None else f"{meth}: not fitted ({entry['unfitted'].get(meth, 'too few points')})"
                      for meth, r in entry["rates"].items()]

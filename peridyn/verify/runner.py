@@ -142,7 +142,7 @@ class Run:
     def _entry(p: Problem) -> dict[str, Any]:
         return {"name": p.name, "title": p.title, "unfitted": dict(p.unfitted), "kind": p.kind, "computes": p.computes, "reference": p.reference,
                 "resolution": p.resolution_name, "size": p.size_name, "error": p.error_name, "methods": list(p.methods),
-                "points": [], "rates": {}, "checks": []}
+                "points": [], "rates": {}, "checks": [], "peridigm": [dict(q) for q in p.peridigm]}
 
     @property
     def results_path(self) -> Path:

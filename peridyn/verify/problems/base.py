@@ -96,6 +96,9 @@ class Problem:
     finest_band: ClassVar[dict[str, float]] = {}
     #: per method: the largest allowed error at every point
     every_band: ClassVar[dict[str, float]] = {}
+    #: Peridigm's own measurements of the same quantity, drawn on the same axes: dicts with
+    #: "method" (the curve it belongs beside), "error", "wall (s)" and "what" (deck, machine, source)
+    peridigm: ClassVar[tuple[dict[str, Any], ...]] = ()
 
     def rate(self, points: list[dict[str, Any]]) -> float:
         """The fitted rate of ``points`` (one method), error against size."""

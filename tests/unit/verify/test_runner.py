@@ -114,3 +114,13 @@ def test_report_with_matplotlib_draws_one_figure_per_curve_problem(tmp_path):
     Run([Power()], tmp_path, quick=True).run()
     assert (tmp_path / "power.png").stat().st_size > 1000
     assert "![power: error against wall time](power.png)" in (tmp_path / "report.md").read_text()
+
+
+def test_peridigms_own_point_is_in_the_results_the_report_and_the_figure(tmp_path):
+    class WithPeridigm(Power):
+        peridigm = ({"method": "a", "error": 0.003, "wall (s)": 50.0, "what": "its example, one core"},)
+
+    Run([WithPeridigm()], tmp_path, quick=True).run()
+    assert load(tmp_path)["problems"][0]["peridigm"] == [dict(WithPeridigm.peridigm[0])]
+    report = (tmp_path / "report.md").read_text()
+    assert "Peridigm's own point (a): relative error 0.003 in 50 s; its example, one core" in report
