@@ -6,6 +6,7 @@ from .base import Check, Measurement, Problem
 from .dispersion import Dispersion
 from .dynamics import Stability, VerletEnergy
 from .extreme import ExtremeCases
+from .elasticity import DeltaConvergence, Kirsch, PoissonRatio
 from .experiments import KalthoffWinkler
 from .families import Diffusion, PlasticityUniaxial, ViscoelasticRelaxation
 from .griffith import Griffith
@@ -19,7 +20,7 @@ PROBLEMS: dict[str, type[Problem]] = {
     cls.name: cls
     for cls in (
         WaveSpeed, Dispersion, ForceConvergence, VerletEnergy, NewmarkEnergy, Stability, ParallelAgreement, ExtremeCases, StaticModulus,
-        Griffith, JIntegral, KalthoffWinkler, Diffusion, ViscoelasticRelaxation, PlasticityUniaxial,
+        PoissonRatio, Kirsch, DeltaConvergence, Griffith, JIntegral, KalthoffWinkler, Diffusion, ViscoelasticRelaxation, PlasticityUniaxial,
     )
 }
 
