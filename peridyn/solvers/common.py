@@ -9,7 +9,7 @@ from numba import njit
 from pydantic import Field, field_validator, model_validator
 
 from ..core.params import ModelParams
-from ..core.errors import InputError, InstabilityError
+from ..core.errors import InaccurateRunError, InputError, InstabilityError
 
 log = logging.getLogger("peridyn.solver")
 
@@ -121,7 +121,7 @@ def judge_energy(monitor: "EnergyMonitor", section: str, dt: float, dt_crit: flo
     better = dt * math.sqrt(0.01 / monitor.max_error)
     fit = f"a 'Fixed dt' of {better:.3g}" if fixed_dt else f"a 'Safety Factor' of {better / dt_crit:.3g}"
     if monitor.max_error > INACCURATE_BALANCE_ERROR:
-        raise InstabilityError(
+        raise InaccurateRunError(
             f"{section}: the run finished, but its energy was off by up to {pct:.1f}% (more than "
             f"{100 * INACCURATE_BALANCE_ERROR:g}%): its time step {dt:.4g} ({dt / dt_crit:.3g} x the estimate) is stable but "
             f"resolves the fastest vibrations by too few steps to trust the answer; {fit} brings the error to about 1%"
