@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from .bar import ForceConvergence, WaveSpeed
+from .contact import ContactStability, Hertz
 from .base import Check, Measurement, Problem
 from .dispersion import Dispersion
 from .dynamics import Stability, VerletEnergy
@@ -19,8 +20,9 @@ from .static import StaticModulus
 PROBLEMS: dict[str, type[Problem]] = {
     cls.name: cls
     for cls in (
-        WaveSpeed, Dispersion, ForceConvergence, VerletEnergy, NewmarkEnergy, Stability, ParallelAgreement, ExtremeCases, StaticModulus,
+        WaveSpeed, Dispersion, ForceConvergence, VerletEnergy, NewmarkEnergy, Stability, ContactStability, ParallelAgreement, ExtremeCases, StaticModulus,
         PoissonRatio, Kirsch, DeltaConvergence, Griffith, JIntegral, KalthoffWinkler, Diffusion, ViscoelasticRelaxation, PlasticityUniaxial,
+        Hertz,
     )
 }
 
