@@ -208,7 +208,7 @@ class Hertz(Problem):
     )
 
     def ladder(self, method: str, quick: bool) -> list[float]:
-        return [12.0, 16.0] if quick else [12.0, 16.0, 20.0, 24.0, 32.0]
+        return [12.0, 16.0, 20.0] if quick else [12.0, 16.0, 20.0, 24.0, 32.0]
 
     # -- the model ---------------------------------------------------------------------------
     def elastic(self) -> tuple[float, float, float]:
