@@ -134,3 +134,12 @@ def test_a_body_no_larger_than_its_horizon_ends_diagnosed_not_done():
 
     out, runs = ExtremeCases().run_case(SMALL_BODY, 5)
     assert out.outcome == DIAGNOSED and runs[0].rc == 3 and "energy was off" in out.why, out
+
+
+def test_the_quickstart_plate_above_its_measured_limit_is_refused():
+    """Safety Factor 1.5 once finished 6.6 % off with more damage than at 1.0: the plate's stable
+    limit is 1.49 times the estimate, so the run is refused before its first step (exit 3)."""
+    from peridyn.verify.problems.extreme import DIAGNOSED, PLATE
+
+    out, runs = ExtremeCases().run_case(PLATE, 5)
+    assert out.outcome == DIAGNOSED and runs[0].rc == 3 and "stable limit measured on the model" in out.why, out
