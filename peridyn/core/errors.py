@@ -183,11 +183,6 @@ class InstabilityError(PeridynError):
         self.collective = collective
 
 
-class InaccurateRunError(InstabilityError):
-    """A stable explicit run reached its final time, but its energy account ended too far off to
-    trust the answer (``solvers.common.INACCURATE_BALANCE_ERROR``); its output is complete."""
-
-
 class OutputWriteError(PeridynError):
     """An output file could not be written (disk full, a file-size limit): the run failed, the
     frames written before stay in ``NAME.partial.e`` and an earlier ``NAME.e`` is untouched."""

@@ -14,6 +14,8 @@ at a pressure p is p h pi m^5 / (2 k), m = delta / h, with V = h^3 facing V = h^
 """
 from __future__ import annotations
 
+from unittest.mock import patch
+
 import contextlib
 import math
 import re
@@ -286,8 +288,8 @@ class Hertz(Problem):
                 force = -float(np.dot(f["Contact_Force_Density"][block, 2], vol))
                 rows.append((-float(u[cap, 2]), force, -float(u[deep, 2]), -float(np.mean(u[ring, 2])), -float(u[top, 2])))
 
-            sim.write_output = record  # called after every step
-            Verlet(_section(info["duration"], {"Fixed dt": dt})).run(sim)
+            with patch.object(sim, "write_output", record):  # the harness reads every step, as an output would
+                Verlet(_section(info["duration"], {"Fixed dt": dt})).run(sim)
             st = sim.stats["solvers"][-1]
             spring_constant = float(tree["Contact"]["Models"]["Springs"]["Spring Constant"])
             law = self.law_force(sim, top, spring_constant, info["rc"])

@@ -8,6 +8,8 @@ to the notch.
 Units: SI throughout (m, s, kg, Pa, J/m^2); angles in degrees."""
 from __future__ import annotations
 
+from unittest.mock import patch
+
 import contextlib
 import math
 import time
@@ -269,11 +271,11 @@ class KalthoffWinkler(Problem):
                 history.times.append(t)
                 history.lengths.append(float(np.hypot(*(pts - np.asarray(tip)).T).max()) if len(pts) else 0.0)
 
-            sim.write_output = record
             steps = int(math.ceil(self.T_END / dt))
             solver = Verlet(_section(steps * dt * (1.0 + 1e-9), {"Fixed dt": dt}))
             solver.MEASURE_ABOVE = math.inf
-            solver.run(sim)
+            with patch.object(sim, "write_output", record):  # the harness reads every step, as an output would
+                solver.run(sim)
         st = sim.stats["solvers"][-1]
         pts = crack_points(x, sim.fields["Damage"][:n], tip, dx, self.R_MIN * g["delta"], self.R_FIT)
         every_pt = crack_points(x, sim.fields["Damage"][:n], tip, dx, self.R_MIN * g["delta"], 1.0)

@@ -81,44 +81,29 @@ def test_the_monitor_alone_stops_a_blow_up_at_the_first_steps(unmeasured, ratio)
     assert step <= (4 if ratio < 10 else 1)
 
 
-def test_without_the_new_rules_a_short_blow_up_ran_to_its_end(unmeasured, monkeypatch):
-    """The failure the rules were made for: a 4-step run at 30 times the estimate ran to its end
-    (now only the end-of-run energy judgement stops it, after the damage)."""
+def test_without_the_new_rules_a_short_blow_up_ended_done(unmeasured, monkeypatch):
+    """The failure the rules were made for: a 4-step run at 30 times the estimate completed."""
     monkeypatch.setattr(EnergyMonitor, "unstable_ratio", math.inf)
     monkeypatch.setattr(EnergyMonitor, "excess", math.inf)
     sim = bar_sim()
     sim.fields["Velocity"][sim.fields["Model_Coordinates"][:, 0] < 1e-3, 0] = 10.0
-    with pytest.raises(InstabilityError, match="the run finished, but its energy was off"):
-        verlet(sim, 4, **{"Safety Factor": 30.0})
-    stats = sim.stats["solvers"][-1]
-    assert stats["steps"] == 4 and stats["energy"]["kinetic"] > 1e6 * stats["energy"]["kinetic_initial"]
+    stats = verlet(sim, 4, **{"Safety Factor": 30.0})
+    assert stats["energy"]["kinetic"] > 1e6 * stats["energy"]["kinetic_initial"]
 
 
-def test_a_stable_run_with_a_large_energy_error_ends_diagnosed(unmeasured):
+def test_a_stable_run_with_a_large_energy_error_ends_with_a_warning(unmeasured, caplog):
     """The bar struck at one end at the estimate's step: stable (the measured limit is above the
-    step), its energy oscillating by about the strike's energy: run to its end, output kept, but
-    not a trusted answer (exit 3), with the Safety Factor that brings the error to about 1 %."""
+    step), its energy oscillating by about the strike's energy: Verlet's answer, warned about."""
+    import logging
+
     sim = bar_sim()
     limit, _ = measured_stable_step(sim, 1e-9, iterations=40)
     assert limit > 1.05 * sim.critical_time_step()
     sim.fields["Velocity"][sim.fields["Model_Coordinates"][:, 0] < 1e-3, 0] = 10.0
-    with pytest.raises(InstabilityError, match=r"energy was off by up to .*'Safety Factor' of 0\.\d+ brings the error to about 1%"):
-        verlet(sim, 200, **{"Safety Factor": 1.0})
-    stats = sim.stats["solvers"][-1]
-    assert stats["steps"] == 200 and stats["energy"]["resolution"] > 0.5
-
-
-def test_a_moderate_energy_error_is_warned_about(unmeasured, caplog):
-    """Between 3 % and 10 %: the answer stands, with a warning naming the finer step."""
-    import logging
-
-    sim = bar_sim()
-    sim.fields["Velocity"][sim.fields["Model_Coordinates"][:, 0] < 1e-3, 0] = 10.0
     with caplog.at_level(logging.WARNING, logger="peridyn.solver"):
-        stats = verlet(sim, 400, **{"Safety Factor": 0.5})
-    worst = stats["energy"]["max_relative_error"]
-    warned = any("energy of the run was off by up to" in r.getMessage() for r in caplog.records)
-    assert warned == (worst > 0.03) and worst < 0.10
+        stats = verlet(sim, 200, **{"Safety Factor": 1.0})
+    assert stats["steps"] == 200 and stats["energy"]["resolution"] > 0.5
+    assert any("energy of the run was off by up to" in r.getMessage() for r in caplog.records)
 
 
 def test_a_smaller_step_runs_the_struck_bar_to_its_end(unmeasured):
@@ -188,29 +173,21 @@ def test_one_vibration_measures_its_stability_parameter_exactly(unmeasured):
     for fraction in (0.3, 0.6):
         sim = two_points(1e-4)
         step = fraction * limit
-        try:
-            verlet(sim, 3, **{"Fixed dt": step})
-        except InstabilityError as e:  # 0.6: its energy is off by a third, the run ends diagnosed
-            assert fraction == 0.6 and "energy was off" in str(e)
+        verlet(sim, 3, **{"Fixed dt": step})
         ratios.append(sim.stats["solvers"][-1]["energy"]["resolution"])
     assert ratios[0] == pytest.approx(0.3**2, rel=2e-3)  # the stretch of 1e-4 is not quite linear
     assert ratios[1] == pytest.approx(0.6**2, rel=2e-3)
 
 
-@pytest.mark.parametrize("fraction,stopped", [(0.2, None), (0.6, "end"), (0.8, "start")])
+@pytest.mark.parametrize("fraction,stopped", [(0.6, False), (0.8, True)])
 def test_an_initial_state_resolved_by_too_few_steps_is_stopped_at_step_0(unmeasured, fraction, stopped):
     """(w dt)^2/4 = fraction^2 on the initial stretch: above 0.5 (w dt > 1.41) the run's answer
-    cannot be trusted, even if Verlet would not blow up, and it is stopped at once; at 0.6 (5.2
-    steps per period) it runs, but its energy account ends a third off: diagnosed at the end."""
+    cannot be trusted, even if Verlet would not blow up."""
     sim = two_points(1e-4)
     limit, _ = measured_stable_step(sim, 1e-9, iterations=5)
-    if stopped == "start":
+    if stopped:
         with pytest.raises(InstabilityError, match="at step 0 .* fewer than 4.4 steps per period"):
             verlet(sim, 5, **{"Fixed dt": fraction * limit})
-    elif stopped == "end":
-        with pytest.raises(InstabilityError, match="the run finished, but its energy was off"):
-            verlet(sim, 5, **{"Fixed dt": fraction * limit})
-        assert sim.stats["solvers"][-1]["steps"] == 5
     else:
         assert verlet(sim, 5, **{"Fixed dt": fraction * limit})["steps"] == 5
 
@@ -236,8 +213,7 @@ def test_a_run_that_is_measured_gives_the_same_answer_as_one_that_is_not(monkeyp
         sim = bar_sim()
         x = sim.fields["Model_Coordinates"]
         sim.fields["Velocity"][:, 0] = np.sin(np.pi * x[:, 0] / 12e-3)
-        with pytest.raises(InstabilityError, match="energy was off by up to 12"):  # 12 points: its highest modes at the estimate
-            verlet(sim, 30, **{"Safety Factor": 1.0})
+        verlet(sim, 30, **{"Safety Factor": 1.0})
         sims.append(sim)
     assert np.array_equal(sims[0].fields["Displacement"], sims[1].fields["Displacement"])
 

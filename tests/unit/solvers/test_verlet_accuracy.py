@@ -1,12 +1,12 @@
-"""A stable Verlet run whose energy account is off by more than 10 % ends as a diagnosis (exit 3),
-not as a result: exit 0 means the answer can be trusted."""
+"""A stable Verlet run whose energy account ends far off is Verlet's answer to the deck (as
+Peridigm's) and is not stopped, but the run says so and names the step that brings the error to
+about 1 %; an accurate run says nothing."""
 from __future__ import annotations
 
-import numpy as np
-import pytest
+import logging
 
-from peridyn.core.errors import InstabilityError
-from peridyn.solvers.common import INACCURATE_BALANCE_ERROR
+import numpy as np
+
 from peridyn.solvers.verlet import Verlet, VerletSection
 from peridyn.testing import build_simulation, cube_deck
 
@@ -24,19 +24,26 @@ def impact(n: int, ratio: float, safety: float, steps: int = 120):
     return sim
 
 
-def test_a_body_no_larger_than_its_horizon_at_half_the_estimate_is_diagnosed_not_done():
-    """5^3 points, horizon 6 spacings: stable (limit 0.97 x the estimate) but its energy is off by
-    about half at half the estimate: the run must not end as a trusted answer."""
-    with pytest.raises(InstabilityError, match=r"energy was off by up to .*'Safety Factor' of"):
-        impact(5, 6.0, 0.5)
+def warnings(caplog) -> list[str]:
+    return [r.getMessage() for r in caplog.records if "energy of the run was off" in r.getMessage()]
 
 
-def test_the_same_body_at_a_small_enough_step_is_a_result():
-    sim = impact(5, 6.0, 0.05, steps=1200)
-    e = sim.stats["solvers"][-1]["energy"]
-    assert e["max_relative_error"] < INACCURATE_BALANCE_ERROR and np.all(np.isfinite(sim.fields["Velocity"]))
+def test_a_body_no_larger_than_its_horizon_at_half_the_estimate_names_the_step_that_fixes_it(caplog):
+    """5^3 points, horizon 6 spacings: stable (limit 0.97 x the estimate), energy about half off at
+    half the estimate; the Safety Factor the warning names brings it to a few percent."""
+    with caplog.at_level(logging.WARNING, logger="peridyn.solver"):
+        sim = impact(5, 6.0, 0.5)
+    worst = sim.stats["solvers"][-1]["energy"]["max_relative_error"]
+    said = warnings(caplog)
+    assert worst > 0.2 and len(said) == 1 and f"{100 * worst:.1f}%" in said[0]
+    factor = float(said[0].split("'Safety Factor' of ")[1].split()[0])
+    assert factor < 0.5
+    caplog.clear()
+    better = impact(5, 6.0, factor, steps=int(120 * 0.5 / factor))
+    assert better.stats["solvers"][-1]["energy"]["max_relative_error"] < 0.05 and np.all(np.isfinite(better.fields["Velocity"]))
 
 
-def test_an_ordinary_impact_at_the_default_factor_is_a_result():
-    sim = impact(7, 3.015, 0.8)
-    assert sim.stats["solvers"][-1]["energy"]["max_relative_error"] < INACCURATE_BALANCE_ERROR
+def test_an_ordinary_impact_at_a_small_step_says_nothing(caplog):
+    with caplog.at_level(logging.WARNING, logger="peridyn.solver"):
+        sim = impact(7, 3.015, 0.25, steps=240)
+    assert sim.stats["solvers"][-1]["energy"]["max_relative_error"] < 0.03 and not warnings(caplog)
