@@ -65,6 +65,17 @@ def youngs_modulus_from_outputs(values: dict[str, np.ndarray], section_area: flo
     return float(force / (section_area * strain))
 
 
+def lattice_family(ratio: float) -> tuple[np.ndarray, np.ndarray]:
+    """The family of a point of the unit cubic lattice within ``ratio`` spacings (inclusive, the
+    point itself excluded): bond vectors (k, 3) in lexicographic order and their lengths (k,)."""
+    reach = int(math.floor(ratio)) + 1
+    g = np.arange(-reach, reach + 1, dtype=float)
+    xi = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
+    d = np.linalg.norm(xi, axis=1)
+    keep = (d > 0) & (d <= ratio)
+    return xi[keep], d[keep]
+
+
 def lattice_youngs_modulus(bulk: float, shear: float, ratio: float, influence=None) -> float:
     """Young's modulus along a lattice axis of the linear peridynamic solid (``Elastic``) on an
     infinite cubic lattice: the bar's modulus without its surfaces.
@@ -77,12 +88,7 @@ def lattice_youngs_modulus(bulk: float, shear: float, ratio: float, influence=No
     is the lattice's error. Returns ``1 / S_1111`` (Pa when the moduli are), ``S`` the
     compliance. ``influence``: ``w(|xi| / horizon)``, default 1 (Peridigm's ``One``).
     """
-    reach = int(math.floor(ratio)) + 1
-    g = np.arange(-reach, reach + 1, dtype=float)
-    xi = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
-    d = np.linalg.norm(xi, axis=1)
-    keep = (d > 0) & (d <= ratio)
-    xi, d = xi[keep], d[keep]
+    xi, d = lattice_family(ratio)
     w = np.ones_like(d) if influence is None else np.asarray(influence(d / ratio), dtype=float)
     m = np.sum(w * d * d)
     # the energy is a quadratic form in the 6 strain components (Voigt, engineering shears)

@@ -30,6 +30,7 @@ import numpy as np
 from ...core.errors import InstabilityError
 from ...solvers.verlet import Verlet
 from ...testing import build_simulation
+from ...testing.tensile import lattice_family
 from ..fit import fit_rate
 from .base import Check, Measurement, Problem
 from .dynamics import Stability, _section, quiet
@@ -49,12 +50,7 @@ def lattice_moduli(m: float, bulk: float = K) -> tuple[float, float, float]:
     C_abcd = (c / 2) sum_j |xi_j| n_a n_b n_c n_d V_j, c = 18 K / (pi delta^4). The continuum
     ball gives C11 = 3 C12 = 1.8 K; the lattice does not (m = 1.515: C11 = 2.63 K, C12 = C44 =
     0.769 K, a bulk modulus 1.39 K): the model converges to the lattice's solid, not the stated one."""
-    r = int(math.ceil(m))
-    g = np.arange(-r, r + 1, dtype=float)
-    xi = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
-    length = np.linalg.norm(xi, axis=1)
-    keep = (length > 0.0) & (length <= m)
-    xi, length = xi[keep], length[keep]
+    xi, length = lattice_family(m)
     n = xi / length[:, None]
     c = 18.0 * bulk / (math.pi * m**4)  # spacing 1: the constants do not depend on it
     w = 0.5 * c * length

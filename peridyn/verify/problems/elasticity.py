@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from ...testing.tensile import lattice_family
 from .base import Check, Measurement, Problem
 
 #: Newton on the assembled (finite-difference) tangent: correspondence
@@ -47,12 +48,7 @@ def lattice_stiffness(model: str, bulk: float, shear: float, ratio: float) -> np
     :func:`peridyn.testing.tensile.lattice_youngs_modulus`); bond-based: W = c/4 sum e^2 / |xi| V,
     c = 18 K / (pi delta^4) (``shear`` unused: nu = 1/4). e = xi.eps.xi / |xi| is the bond
     extension per unit strain component."""
-    reach = int(math.floor(ratio)) + 1
-    g = np.arange(-reach, reach + 1, dtype=float)
-    xi = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
-    d = np.linalg.norm(xi, axis=1)
-    keep = (d > 0) & (d <= ratio)
-    xi, d = xi[keep], d[keep]
+    xi, d = lattice_family(ratio)
     basis = np.zeros((6, 3, 3))
     for k, (i, j) in enumerate(((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))):
         basis[k, i, j] = basis[k, j, i] = 1.0 if i == j else 0.5
@@ -444,12 +440,7 @@ def lattice_anisotropy(ratio: float) -> float:
     """A(m) = sum w (xi_y^4 - 3 xi_y^2 xi_z^2) / (m^2 sum w xi_y^2), w = xi_x^2 / |xi|^2, over the
     lattice family of radius m = ``ratio`` spacings: the fourth moment that the force of an
     antiplane field u_x = phi(y, z) leaves when phi is harmonic (zero for the continuum ball)."""
-    r = int(math.ceil(ratio))
-    g = np.arange(-r, r + 1, dtype=float)
-    xi = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
-    d = np.linalg.norm(xi, axis=1)
-    keep = (d > 0) & (d <= ratio)
-    xi, d = xi[keep], d[keep]
+    xi, d = lattice_family(ratio)
     w = xi[:, 0] ** 2 / d**2
     return float(np.sum(w * (xi[:, 1] ** 4 - 3.0 * xi[:, 1] ** 2 * xi[:, 2] ** 2)) / (ratio**2 * np.sum(w * xi[:, 1] ** 2)))
 
