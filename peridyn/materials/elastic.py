@@ -442,6 +442,9 @@ class Elastic(Material):
         if self._ac is None or self._ac.shape[0] != n or (backend is not None and self._ac_backend is not backend):
             self._ac = backend.zeros((n, 2)) if backend is not None else np.zeros((n, 2))
             self._ac_backend = backend
+            # the column views, made once: numba-cuda slices a device array's column in Python, one
+            # element at a time (seconds per slice at a million points, every step when made there)
+            self._ac_columns = (self._ac[:, 0], self._ac[:, 1])
         if not on_host(block):  # one device: no ghosts; every row (those of a closed block's bonds among them)
             lo1, hi1, lo2, hi2 = 0, n, n, n
         else:
@@ -452,7 +455,7 @@ class Elastic(Material):
         kernel(lo1, hi1, nl.offsets, nl.neighbors, s["Weighted_Volume"], s["Coordinates"], args, self._ac)
         if hi2 > lo2:  # ghosts (MPI): their dilatation and weighted volume are exchanged
             kernel(lo2, hi2, nl.offsets, nl.neighbors, s["Weighted_Volume"], s["Coordinates"], args, self._ac)
-        return self._ac[:, 0], self._ac[:, 1]
+        return self._ac_columns
 
     def force_state(self, block: BlockView, t: np.ndarray) -> None:
         s, nl = block.fields, block.bonds
