@@ -162,6 +162,9 @@ PTX_SCRIPT = textwrap.dedent(
     import json, sys
     import numba
     from numba.cuda import compile_ptx
+    from peridyn.kernels.numba_cuda import cuda_module
+
+    cuda_module()  # numpy 2.5 has no row_stack, which numba-cuda's compiler calls: cuda_module() restores it
     try:
         compile_ptx(lambda a: None, (numba.float64[::1],), cc=(8, 0))
     except Exception as exc:  # no NVVM or NVRTC
