@@ -370,8 +370,9 @@ def cmd_verify(args) -> int:
     from .verify import run_verify
 
     _setup_logging(args.verbose - args.quiet)
-    command = "peridyn verify" + (" --quick" if args.quick else "") + (f" --problems {' '.join(args.problems)}" if args.problems else "")
-    return run_verify(args.problems, Path(args.out), quick=args.quick, command=command)
+    command = ("peridyn verify" + (" --quick" if args.quick else "") + (" --device gpu" if args.device == "gpu" else "")
+               + (f" --problems {' '.join(args.problems)}" if args.problems else ""))
+    return run_verify(args.problems, Path(args.out), quick=args.quick, command=command, device=args.device or "cpu")
 
 
 # ------------------------------------------------------------------------------------------------
@@ -426,6 +427,8 @@ def build_parser() -> argparse.ArgumentParser:
     vf = sub.add_parser("verify", help="run the verification problems: error against wall time, convergence rates, stable time steps")
     vf.add_argument("--quick", action="store_true", help="the coarsest resolutions only (3 points per curve; a few minutes)")
     vf.add_argument("--problems", nargs="+", metavar="NAME", help="run only these (default: all): wave-speed, force-convergence, verlet-energy, stability")
+    vf.add_argument("--device", choices=("cpu", "gpu"), type=str.lower,
+                    help="gpu: also run every method that has a GPU path on one NVIDIA GPU, as its own curve (needs peridyn[gpu])")
     vf.add_argument("--out", default="peridyn-verify", help="folder for results.json, report.md and the figures (default: ./peridyn-verify)")
     common(vf)
     vf.set_defaults(func=cmd_verify)

@@ -110,7 +110,7 @@ def write_report(state: dict[str, Any], out: Path, *, figures: bool = True) -> P
         f"wall time {state['wall (s)']:.1f} s",
         f"- date: {state['date']}; peridyn {v['version']}" + (f", commit {v['commit']}" if v.get("commit") else ""),
         f"- machine: {m['cpu']}, {m['cores']} cores ({m['usable cores']} usable, {m['numba threads']} numba threads); {m['platform']}, "
-        f"Python {m['python']}",
+        f"Python {m['python']}" + (f"; GPU: {m['gpu']}" if m.get("gpu") else ""),
         "",
         "Each point runs serially in one process; wall time is the point's own (set-up included unless its problem says "
         "otherwise), peak memory the process's peak resident size so far (getrusage).",

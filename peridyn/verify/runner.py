@@ -19,6 +19,7 @@ from typing import Any
 
 from ..core.errors import ExitCode, InputError
 from .problems import PROBLEMS, Check, Problem
+from .problems.base import base_method, device_of, on_device
 
 log = logging.getLogger("peridyn.verify")
 
@@ -36,6 +37,18 @@ def select_problems(names: Sequence[str] | None) -> list[Problem]:
     if unknown:
         raise InputError(f"--problems: unknown problem {unknown[0]!r}", fix=f"choose from {', '.join(PROBLEMS)}")
     return [PROBLEMS[n]() for n in dict.fromkeys(names)]
+
+
+def gpu_name() -> str:
+    """The name of the GPU the ``cuda`` backend runs on ("simulator" under numba-cuda's
+    simulator); an InputError (how to install, or that no GPU is there) when it cannot run."""
+    from ..kernels.numba_cuda import cuda_module, require_gpu, simulated
+
+    require_gpu()
+    if simulated():
+        return "numba-cuda simulator (NUMBA_ENABLE_CUDASIM=1)"
+    name = cuda_module().get_current_device().name
+    return name.decode() if isinstance(name, bytes) else str(name)
 
 
 def prepare_out(out: Path) -> None:
@@ -120,10 +133,11 @@ def write_json(path: Path, data: dict[str, Any]) -> None:
 class Run:
     """One ``peridyn verify`` run: its state is what ``results.json`` holds."""
 
-    def __init__(self, problems: Sequence[Problem], out: Path, *, quick: bool, command: str = "peridyn verify") -> None:
+    def __init__(self, problems: Sequence[Problem], out: Path, *, quick: bool, command: str = "peridyn verify", device: str = "cpu") -> None:
         self.problems = list(problems)
         self.out = Path(out)
         self.quick = quick
+        self.device = device
         self.t0 = time.perf_counter()
         self.state: dict[str, Any] = {
             "format": 1,
@@ -137,11 +151,14 @@ class Run:
             "failed checks": 0,
             "problems": [self._entry(p) for p in self.problems],
         }
+        if device == "gpu":
+            self.state["machine"]["gpu"] = gpu_name()
 
-    @staticmethod
-    def _entry(p: Problem) -> dict[str, Any]:
-        return {"name": p.name, "title": p.title, "unfitted": dict(p.unfitted), "kind": p.kind, "computes": p.computes, "reference": p.reference,
-                "resolution": p.resolution_name, "size": p.size_name, "error": p.error_name, "methods": list(p.methods),
+    def _entry(self, p: Problem) -> dict[str, Any]:
+        curves = p.curves(self.device)
+        unfitted = {m: p.unfitted[base_method(m)] for m in curves if base_method(m) in p.unfitted}
+        return {"name": p.name, "title": p.title, "unfitted": unfitted, "kind": p.kind, "computes": p.computes, "reference": p.reference,
+                "resolution": p.resolution_name, "size": p.size_name, "error": p.error_name, "methods": list(curves),
                 "points": [], "rates": {}, "checks": [], "peridigm": [dict(q) for q in p.peridigm]}
 
     @property
@@ -153,14 +170,15 @@ class Run:
         write_json(self.results_path, self.state)
 
     def point(self, problem: Problem, method: str, resolution: float) -> dict[str, Any]:
-        """Run and time one point; a failure other than Ctrl-C is recorded with the point."""
+        """Run and time one point of the curve ``method`` (a GPU curve measures its method on
+        the GPU); a failure other than Ctrl-C is recorded with the point."""
         from .problems.dynamics import quiet
 
         t0 = time.perf_counter()
         failure = None
         try:
-            with quiet(*QUIET):
-                m = problem.measure(method, resolution, self.quick)
+            with quiet(*QUIET), on_device(device_of(method)):
+                m = problem.measure(base_method(method), resolution, self.quick)
         except (KeyboardInterrupt, SystemExit):
             raise
         except Exception as exc:
@@ -183,8 +201,8 @@ class Run:
         from .problems.dynamics import quiet
 
         try:
-            with quiet(*QUIET):
-                problem.measure(method, resolution, self.quick)
+            with quiet(*QUIET), on_device(device_of(method)):
+                problem.measure(base_method(method), resolution, self.quick)
         except Exception:  # noqa: BLE001 - reported by the point itself
             pass
 
@@ -192,13 +210,13 @@ class Run:
         """Recompute ``entry``'s rates and checks from its points."""
         checks: list[Check] = []
         rates = {}
-        for method in problem.methods:
+        for method in entry["methods"]:
             pts = [p for p in entry["points"] if p["method"] == method and "failure" not in p]
             failed = [p for p in entry["points"] if p["method"] == method and "failure" in p]
             for p in failed:
                 checks.append(Check(problem.name, method, f"point {p['resolution']:g} failed: {p['failure']}", math.nan))
             if problem.kind == "curve" and len(pts) >= 2:
-                rates[method] = None if method in problem.unfitted else problem.rate(pts)
+                rates[method] = None if base_method(method) in problem.unfitted else problem.rate(pts)
             checks.extend(problem.checks(method, pts, self.quick))
         entry["rates"] = rates
         entry["checks"] = [c.as_dict() for c in checks]
@@ -214,7 +232,7 @@ class Run:
         try:
             for i, (problem, entry) in enumerate(zip(self.problems, self.state["problems"]), 1):
                 t0 = time.perf_counter()
-                ladders = {m: problem.ladder(m, self.quick) for m in problem.methods}
+                ladders = {m: problem.ladder(base_method(m), self.quick) for m in entry["methods"]}
                 log.info("[%d/%d] %s: %s; %d points (%s)", i, total, problem.name, problem.title, sum(map(len, ladders.values())),
                          ", ".join(f"{m}: {problem.resolution_name} {' '.join(f'{r:g}' for r in rs)}" for m, rs in ladders.items()))
                 for method, ladder in ladders.items():
@@ -248,11 +266,18 @@ class Run:
         return int(ExitCode.FAILURE) if failed else int(ExitCode.OK)
 
 
-def run_verify(names: Sequence[str] | None, out: str | Path, *, quick: bool = False, command: str = "peridyn verify") -> int:
+def run_verify(names: Sequence[str] | None, out: str | Path, *, quick: bool = False, command: str = "peridyn verify",
+               device: str = "cpu") -> int:
     """``peridyn verify``: run the named problems (all for None) into the folder ``out``; the
-    exit status (0 every band holds, 1 one fails, 130 interrupted). InputError for an unknown
-    name or an ``out`` that is a file."""
+    exit status (0 every band holds, 1 one fails, 130 interrupted). ``device="gpu"`` adds a
+    curve on the GPU backend for every method that has one. InputError for an unknown name, an
+    ``out`` that is a file, or ``device="gpu"`` without a usable GPU."""
     problems = select_problems(names)
+    if device == "gpu":
+        gpu_name()
+        if not any(p.gpu_methods for p in problems):
+            raise InputError("--device gpu: none of the problems chosen has a method that runs on the GPU",
+                             path=("--device",), fix="add --problems " + " ".join(n for n, c in PROBLEMS.items() if c.gpu_methods))
     out = Path(out)
     prepare_out(out)
-    return Run(problems, out, quick=quick, command=command).run()
+    return Run(problems, out, quick=quick, command=command, device=device).run()

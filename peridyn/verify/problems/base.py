@@ -2,11 +2,52 @@
 point, and the bands its results must fall in."""
 from __future__ import annotations
 
+import contextlib
 import math
+from collections.abc import Iterator
+from contextvars import ContextVar
 from dataclasses import asdict, dataclass, field
 from typing import Any, ClassVar
 
 from ..fit import fit_rate
+
+#: the suffix of a method's curve run on the GPU backend (``peridyn verify --device gpu``)
+GPU = " (GPU)"
+_DEVICE: ContextVar[str] = ContextVar("peridyn_verify_device", default="cpu")
+
+
+def base_method(method: str) -> str:
+    """The problem's own method name of the curve ``method`` (``"Elastic (GPU)"`` -> ``"Elastic"``)."""
+    return method[: -len(GPU)] if method.endswith(GPU) else method
+
+
+def device_of(method: str) -> str:
+    """"gpu" for a GPU curve's name, else "cpu"."""
+    return "gpu" if method.endswith(GPU) else "cpu"
+
+
+def current_device() -> str:
+    """The device of the point being measured ("cpu" or "gpu"; see :func:`on_device`)."""
+    return _DEVICE.get()
+
+
+@contextlib.contextmanager
+def on_device(device: str) -> Iterator[None]:
+    """Within the block, :func:`simulation` builds models on ``device`` ("cpu" or "gpu")."""
+    token = _DEVICE.set(device)
+    try:
+        yield
+    finally:
+        _DEVICE.reset(token)
+
+
+def simulation(tree: dict[str, Any], **kwargs: Any) -> Any:
+    """``peridyn.testing.build_simulation`` on the device of the point being measured: the GPU
+    backend (``cuda``) inside ``on_device("gpu")``, the default CPU backend otherwise. Problems
+    that list a method in ``gpu_methods`` build its models through this."""
+    from ...testing import build_simulation
+
+    return build_simulation(tree, backend="cuda" if current_device() == "gpu" else None, **kwargs)
 
 
 @dataclass
@@ -78,6 +119,14 @@ class Problem:
     size_name: ClassVar[str] = "size"
     error_name: ClassVar[str] = "relative error"
     methods: ClassVar[tuple[str, ...]]
+    #: the methods that also run on the GPU backend, as their own curves "<method> (GPU)" under
+    #: ``peridyn verify --device gpu`` (their models built by :func:`simulation`, explicit
+    #: solvers only, the fields read once the solver has finished)
+    gpu_methods: ClassVar[tuple[str, ...]] = ()
+
+    def curves(self, device: str = "cpu") -> tuple[str, ...]:
+        """The curves run: every method, and with ``device="gpu"`` each GPU method's twin."""
+        return self.methods + (tuple(m + GPU for m in self.gpu_methods) if device == "gpu" else ())
 
     def ladder(self, method: str, quick: bool) -> list[float]:
         """The resolutions to run for ``method``, coarsest first."""
@@ -105,18 +154,20 @@ class Problem:
         return fit_rate([p["size"] for p in points], [p["error"] for p in points])
 
     def checks(self, method: str, points: list[dict[str, Any]], quick: bool) -> list[Check]:
-        """The bands of ``method``'s finished ``points`` (finest last)."""
+        """The bands of ``method``'s finished ``points`` (finest last); a GPU curve is held to
+        its method's bands."""
         out: list[Check] = []
         if not points:
             return out
-        if method in self.every_band:
+        base = base_method(method)
+        if base in self.every_band:
             for p in points:
-                out.append(Check(self.name, method, f"{self.error_name} at {self.resolution_name} = {p['resolution']:g}", p["error"], high=self.every_band[method]))
-        if method in self.finest_band:
+                out.append(Check(self.name, method, f"{self.error_name} at {self.resolution_name} = {p['resolution']:g}", p["error"], high=self.every_band[base]))
+        if base in self.finest_band:
             p = points[-1]
-            out.append(Check(self.name, method, f"{self.error_name} at the finest {self.resolution_name} = {p['resolution']:g}", p["error"], high=self.finest_band[method]))
-        if method in self.rate_band and len(points) >= 3:
-            lo, hi = self.rate_band[method]
+            out.append(Check(self.name, method, f"{self.error_name} at the finest {self.resolution_name} = {p['resolution']:g}", p["error"], high=self.finest_band[base]))
+        if base in self.rate_band and len(points) >= 3:
+            lo, hi = self.rate_band[base]
             out.append(Check(self.name, method, f"fitted rate of the {self.error_name} in {self.size_name}", self.rate(points), lo, hi))
         out.extend(self.extra_checks(method, points, quick))
         return out

@@ -46,3 +46,38 @@ def test_a_two_percent_wrong_micromodulus_fails_the_wave_speed(tmp_path, monkeyp
     failed = [c["what"] for c in checks if not c["passed"]]
     assert "relative speed error at the finest delta/h = 15.5" in failed
     assert "fitted rate of the relative speed error in h/delta" in failed
+
+
+def test_device_gpu_with_no_gpu_method_chosen_is_exit_2_with_one_line(tmp_path, capsys):
+    assert main(["verify", "--device", "gpu", "--problems", "force-convergence", "--out", str(tmp_path / "o")]) == ExitCode.INPUT_ERROR
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "GPU" in err[0] and "verlet-energy" in err[0]
+    assert not (tmp_path / "o").exists()
+
+
+def test_device_gpu_without_a_gpu_is_exit_2_with_one_line(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("NUMBA_ENABLE_CUDASIM", "0")
+    from numba import config
+
+    monkeypatch.setattr(config, "ENABLE_CUDASIM", 0)
+    from numba import cuda
+
+    monkeypatch.setattr(cuda, "is_available", lambda: False)
+    assert main(["verify", "--device", "gpu", "--problems", "verlet-energy", "--out", str(tmp_path / "o")]) == ExitCode.INPUT_ERROR
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "no CUDA GPU" in err[0]
+    assert not (tmp_path / "o").exists()
+
+
+def test_the_verlet_energy_gpu_curve_runs_its_model_on_the_gpu_backend():
+    """The GPU curve's runs are the CPU's on the GPU backend (the simulator here): same
+    displacements to round-off."""
+    from peridyn.verify.problems.base import on_device
+    from peridyn.verify.problems.dynamics import VerletEnergy
+
+    problem = VerletEnergy()
+    u_cpu, st_cpu = problem.run("Elastic Bond Based", 4, quick=True)
+    with on_device("gpu"):
+        u_gpu, st_gpu = problem.run("Elastic Bond Based", 4, quick=True)
+    assert st_gpu["device"] == "gpu" and st_cpu.get("device", "cpu") == "cpu"
+    assert abs(u_gpu - u_cpu).max() <= 1e-12 * abs(u_cpu).max() and abs(u_cpu).max() > 0

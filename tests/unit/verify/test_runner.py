@@ -124,3 +124,51 @@ def test_peridigms_own_point_is_in_the_results_the_report_and_the_figure(tmp_pat
     assert load(tmp_path)["problems"][0]["peridigm"] == [dict(WithPeridigm.peridigm[0])]
     report = (tmp_path / "report.md").read_text()
     assert "Peridigm's own point (a): relative error 0.003 in 50 s; its example, one core" in report
+
+
+class OnDevice(Power):
+    """Power whose method "a" also runs on the GPU; records the device of every measurement."""
+
+    gpu_methods = ("a",)
+
+    def __init__(self, gpu_error=None, **kw):
+        super().__init__(**kw)
+        self.gpu_error = gpu_error
+        self.devices: list[tuple[str, str]] = []
+
+    def measure(self, method, resolution, quick):
+        from peridyn.verify.problems.base import current_device
+
+        self.devices.append((method, current_device()))
+        m = super().measure(method, resolution, quick)
+        if current_device() == "gpu" and self.gpu_error is not None:
+            m.error = self.gpu_error
+        return m
+
+
+def test_device_gpu_adds_a_curve_per_gpu_method_held_to_its_bands(tmp_path):
+    problem = OnDevice()
+    assert Run([problem], tmp_path, quick=True, device="gpu").run() == ExitCode.OK
+    data = load(tmp_path)
+    assert "simulator" in data["machine"]["gpu"]
+    entry = data["problems"][0]
+    assert entry["methods"] == ["a", "b", "a (GPU)"]
+    assert [(p["method"], p["resolution"]) for p in entry["points"] if p["method"] == "a (GPU)"] == [("a (GPU)", r) for r in (4.0, 8.0, 16.0)]
+    # the problem measures its own method "a", on the GPU, for the GPU curve (warm-up included)
+    assert problem.devices.count(("a", "gpu")) == 4 and ("b", "gpu") not in problem.devices
+    assert entry["rates"]["a (GPU)"] == pytest.approx(2.0)
+    gpu_checks = [c for c in entry["checks"] if c["method"] == "a (GPU)"]
+    assert len(gpu_checks) == 2 and all(c["passed"] for c in gpu_checks)  # a's finest band and rate band
+    assert "GPU: numba-cuda simulator" in (tmp_path / "report.md").read_text()
+
+
+def test_a_gpu_curve_outside_its_methods_band_fails(tmp_path):
+    assert Run([OnDevice(gpu_error=0.5)], tmp_path, quick=True, device="gpu").run() == ExitCode.FAILURE
+    failed = [c for c in load(tmp_path)["problems"][0]["checks"] if not c["passed"]]
+    assert failed and {c["method"] for c in failed} == {"a (GPU)"}
+
+
+def test_a_cpu_run_has_no_gpu_curves(tmp_path):
+    problem = OnDevice()
+    Run([problem], tmp_path, quick=True).run()
+    assert load(tmp_path)["problems"][0]["methods"] == ["a", "b"] and {d for _, d in problem.devices} == {"cpu"}
