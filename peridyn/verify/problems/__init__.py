@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from .bar import ForceConvergence, WaveSpeed
+from .branching import GlassBranching
 from .contact import ContactStability, Hertz
 from .base import Check, Measurement, Problem
 from .dispersion import Dispersion
@@ -21,7 +22,7 @@ PROBLEMS: dict[str, type[Problem]] = {
     cls.name: cls
     for cls in (
         WaveSpeed, Dispersion, ForceConvergence, VerletEnergy, NewmarkEnergy, Stability, ContactStability, ParallelAgreement, ExtremeCases, StaticModulus,
-        PoissonRatio, Kirsch, DeltaConvergence, Griffith, JIntegral, KalthoffWinkler, Diffusion, ViscoelasticRelaxation, PlasticityUniaxial,
+        PoissonRatio, Kirsch, DeltaConvergence, Griffith, JIntegral, KalthoffWinkler, GlassBranching, Diffusion, ViscoelasticRelaxation, PlasticityUniaxial,
         Hertz,
     )
 }

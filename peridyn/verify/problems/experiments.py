@@ -14,7 +14,7 @@ import contextlib
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any, Iterator
+from typing import Any, Callable, Iterator
 
 import numpy as np
 
@@ -153,6 +153,33 @@ def kalthoff_deck(dx: float, *, m: float = 3.0, gc: float = KW_GC, speed: float 
     return tree, {"dx": dx, "delta": delta, "h": h}
 
 
+def recorded_run(tree: dict[str, Any], safety: float, t_end: float, every: int, record: Callable[[Any, float], None]) -> tuple[Any, float]:
+    """Build the deck ``tree`` and run velocity Verlet at ``safety`` times the set-up step to
+    ``t_end`` (s; a whole number of steps, the last ending at or after it), calling ``record(sim,
+    t)`` every ``every`` steps (as an output would be written; the run's own set-up warnings and
+    progress silenced). Returns the simulation and the step (s)."""
+    from ...solvers.verlet import Verlet
+    from ...testing import build_simulation
+    from .dynamics import _section
+
+    with _quiet():
+        sim = build_simulation(tree)
+        dt = safety * sim.critical_time_step()
+        counter = [0]
+
+        def write(t: float) -> None:
+            counter[0] += 1
+            if counter[0] % every == 0:
+                record(sim, t)
+
+        steps = int(math.ceil(t_end / dt))
+        solver = Verlet(_section(steps * dt * (1.0 + 1e-9), {"Fixed dt": dt}))
+        solver.MEASURE_ABOVE = math.inf
+        with patch.object(sim, "write_output", write):  # the harness reads every step, as an output would
+            solver.run(sim)
+    return sim, dt
+
+
 @dataclass
 class KalthoffRun:
     """One run of :func:`kalthoff_deck`: the fitted crack angle (degrees; NaN without a crack),
@@ -248,34 +275,20 @@ class KalthoffWinkler(Problem):
     def run(self, across: float, *, every: int = 10) -> KalthoffRun:
         """Run the plate with ``across`` points across the notch spacing (dx = 50 mm / across),
         recording the crack every ``every`` steps."""
-        from ...solvers.verlet import Verlet
-        from ...testing import build_simulation
-        from .dynamics import _section
-
         dx = 2.0 * KW_NOTCH_Y / across
         tree, g = kalthoff_deck(dx, m=self.M, gc=self.gc)
         tip = (KW_NOTCH_LENGTH, KW_NOTCH_Y)
-        with _quiet():
-            sim = build_simulation(tree)
-            dt = self.SAFETY * sim.critical_time_step()
+        history = CrackHistory()
+
+        def record(sim, t: float) -> None:
             n = sim.num_owned
-            x = sim.fields["Model_Coordinates"][:n]
-            history = CrackHistory()
-            counter = [0]
+            pts = crack_points(sim.fields["Model_Coordinates"][:n], sim.fields["Damage"][:n], tip, dx, self.R_MIN * g["delta"], 1.0)
+            history.times.append(t)
+            history.lengths.append(float(np.hypot(*(pts - np.asarray(tip)).T).max()) if len(pts) else 0.0)
 
-            def record(t: float) -> None:
-                counter[0] += 1
-                if counter[0] % every:
-                    return
-                pts = crack_points(x, sim.fields["Damage"][:n], tip, dx, self.R_MIN * g["delta"], 1.0)
-                history.times.append(t)
-                history.lengths.append(float(np.hypot(*(pts - np.asarray(tip)).T).max()) if len(pts) else 0.0)
-
-            steps = int(math.ceil(self.T_END / dt))
-            solver = Verlet(_section(steps * dt * (1.0 + 1e-9), {"Fixed dt": dt}))
-            solver.MEASURE_ABOVE = math.inf
-            with patch.object(sim, "write_output", record):  # the harness reads every step, as an output would
-                solver.run(sim)
+        sim, dt = recorded_run(tree, self.SAFETY, self.T_END, every, record)
+        n = sim.num_owned
+        x = sim.fields["Model_Coordinates"][:n]
         st = sim.stats["solvers"][-1]
         pts = crack_points(x, sim.fields["Damage"][:n], tip, dx, self.R_MIN * g["delta"], self.R_FIT)
         every_pt = crack_points(x, sim.fields["Damage"][:n], tip, dx, self.R_MIN * g["delta"], 1.0)
