@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from .bar import ForceConvergence, WaveSpeed
 from .branching import GlassBranching
+from .brazilian import BrazilianDisk
 from .contact import ContactStability, Hertz
 from .base import Check, Measurement, Problem
 from .dispersion import Dispersion
@@ -22,7 +23,7 @@ PROBLEMS: dict[str, type[Problem]] = {
     cls.name: cls
     for cls in (
         WaveSpeed, Dispersion, ForceConvergence, VerletEnergy, NewmarkEnergy, Stability, ContactStability, ParallelAgreement, ExtremeCases, StaticModulus,
-        PoissonRatio, Kirsch, DeltaConvergence, Griffith, JIntegral, KalthoffWinkler, GlassBranching, Diffusion, ViscoelasticRelaxation, PlasticityUniaxial,
+        PoissonRatio, Kirsch, DeltaConvergence, Griffith, JIntegral, KalthoffWinkler, GlassBranching, BrazilianDisk, Diffusion, ViscoelasticRelaxation, PlasticityUniaxial,
         Hertz,
     )
 }

@@ -14,6 +14,7 @@ import contextlib
 import math
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, Callable, Iterator
 
 import numpy as np
@@ -153,8 +154,9 @@ def kalthoff_deck(dx: float, *, m: float = 3.0, gc: float = KW_GC, speed: float 
     return tree, {"dx": dx, "delta": delta, "h": h}
 
 
-def recorded_run(tree: dict[str, Any], safety: float, t_end: float, every: int, record: Callable[[Any, float], None]) -> tuple[Any, float]:
-    """Build the deck ``tree`` and run velocity Verlet at ``safety`` times the set-up step to
+def recorded_run(tree: dict[str, Any], safety: float, t_end: float, every: int, record: Callable[[Any, float], None],
+                 directory: str | Path = ".") -> tuple[Any, float]:
+    """Build the deck ``tree`` (its files relative to ``directory``) and run velocity Verlet at ``safety`` times the set-up step to
     ``t_end`` (s; a whole number of steps, the last ending at or after it), calling ``record(sim,
     t)`` every ``every`` steps (as an output would be written; the run's own set-up warnings and
     progress silenced). Returns the simulation and the step (s)."""
@@ -163,7 +165,7 @@ def recorded_run(tree: dict[str, Any], safety: float, t_end: float, every: int, 
     from .dynamics import _section
 
     with _quiet():
-        sim = build_simulation(tree)
+        sim = build_simulation(tree, directory=directory)
         dt = safety * sim.critical_time_step()
         counter = [0]
 
