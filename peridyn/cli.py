@@ -367,12 +367,14 @@ def cmd_new_plugin(args) -> int:
 
 def cmd_verify(args) -> int:
     """Run the verification problems; 0 every band holds, 1 one fails, 130 interrupted."""
+    from .parallel.comm import get_comm
     from .verify import run_verify
 
-    _setup_logging(args.verbose - args.quiet)
+    comm = get_comm()  # under mpiexec the ranks share out the points
+    _setup_logging(args.verbose - args.quiet, comm.rank)
     command = ("peridyn verify" + (" --quick" if args.quick else "") + (" --device gpu" if args.device == "gpu" else "")
                + (f" --problems {' '.join(args.problems)}" if args.problems else ""))
-    return run_verify(args.problems, Path(args.out), quick=args.quick, command=command, device=args.device or "cpu")
+    return run_verify(args.problems, Path(args.out), quick=args.quick, command=command, device=args.device or "cpu", comm=comm)
 
 
 # ------------------------------------------------------------------------------------------------

@@ -26,6 +26,17 @@ def launched_with_mpi() -> bool:
     return False
 
 
+#: prefixes of the environment variables MPI launchers (MPICH's Hydra, Open MPI, Intel MPI,
+#: MVAPICH, PMIx) give their processes
+_LAUNCHER_PREFIXES = ("PMI_", "PMIX_", "OMPI_", "HYDRA_", "MPIR_", "MPI_LOCAL", "I_MPI_", "MV2_", "PRTE_", "OPAL_")
+
+
+def without_launcher(env: dict[str, str]) -> dict[str, str]:
+    """``env`` without the variables an MPI launcher set for this process: a child process given
+    it starts as a serial run (or under its own ``mpiexec``), not as a rank of this job."""
+    return {k: v for k, v in env.items() if not k.startswith(_LAUNCHER_PREFIXES)}
+
+
 def ranks_on_this_node() -> int:
     """Number of MPI ranks sharing this machine, from the launcher's environment (1 if unknown)."""
     for name in ("MPI_LOCALNRANKS", "OMPI_COMM_WORLD_LOCAL_SIZE", "SLURM_NTASKS_PER_NODE", "PMI_SIZE"):

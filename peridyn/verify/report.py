@@ -113,7 +113,9 @@ def write_report(state: dict[str, Any], out: Path, *, figures: bool = True) -> P
         f"Python {m['python']}" + (f"; GPU: {m['gpu']}" if m.get("gpu") else ""),
         "",
         "Each point runs serially in one process; wall time is the point's own (set-up included unless its problem says "
-        "otherwise), peak memory the process's peak resident size so far (getrusage).",
+        "otherwise), peak memory the process's peak resident size so far (getrusage)."
+        + (f" Run under mpiexec with {state['ranks']} ranks, which shared out the points: each point's time was taken while "
+           "the other ranks ran theirs on the same machine." if state.get("ranks", 1) > 1 else ""),
         "",
     ]
     for entry in state["problems"]:

@@ -133,7 +133,12 @@ def write_json(path: Path, data: dict[str, Any]) -> None:
 class Run:
     """One ``peridyn verify`` run: its state is what ``results.json`` holds."""
 
-    def __init__(self, problems: Sequence[Problem], out: Path, *, quick: bool, command: str = "peridyn verify", device: str = "cpu") -> None:
+    def __init__(self, problems: Sequence[Problem], out: Path, *, quick: bool, command: str = "peridyn verify", device: str = "cpu",
+                 comm: Any = None) -> None:
+        from ..parallel.comm import SerialComm
+
+        #: under ``mpiexec`` the ranks share out each problem's points and rank 0 writes the results
+        self.comm = comm or SerialComm()
         self.problems = list(problems)
         self.out = Path(out)
         self.quick = quick
@@ -149,6 +154,7 @@ class Run:
             "status": "running",
             "wall (s)": 0.0,
             "failed checks": 0,
+            "ranks": self.comm.size,
             "problems": [self._entry(p) for p in self.problems],
         }
         if device == "gpu":
@@ -166,6 +172,8 @@ class Run:
         return self.out / "results.json"
 
     def save(self) -> None:
+        if self.comm.rank != 0:
+            return
         self.state["wall (s)"] = time.perf_counter() - self.t0
         write_json(self.results_path, self.state)
 
@@ -206,6 +214,30 @@ class Run:
         except Exception:  # noqa: BLE001 - reported by the point itself
             pass
 
+    def shared_out(self, problem: Problem, entry: dict[str, Any], ladders: dict[str, list[float]]) -> None:
+        """Under ``mpiexec``: rank r measures the points k with k % ranks == r (in the serial
+        order; each warms up the methods it measures), or, for a problem whose points of a method
+        depend on each other, the methods m with m % ranks == r; rank 0 gathers them, in that order,
+        into ``entry`` and results.json. The points' wall times are each their own, taken while
+        the other ranks run theirs on the same machine."""
+        work = [(m, r) for m, rs in ladders.items() for r in rs]
+        rank, size = self.comm.rank, self.comm.size
+        methods = list(ladders)
+        owner = [k % size if problem.independent_points else methods.index(m) % size for k, (m, _) in enumerate(work)]
+        mine: list[tuple[int, dict[str, Any]]] = []
+        warmed: set[str] = set()
+        for k in (k for k in range(len(work)) if owner[k] == rank):
+            method, resolution = work[k]
+            if problem.kind == "curve" and method not in warmed:
+                self.warm_up(problem, method, ladders[method][0])
+                warmed.add(method)
+            mine.append((k, self.point(problem, method, resolution)))
+        parts = self.comm.gather(mine)
+        if rank == 0:
+            entry["points"].extend(point for _, point in sorted((x for part in parts for x in part), key=lambda kp: kp[0]))
+            self.update(problem, entry)
+            self.save()
+
     def update(self, problem: Problem, entry: dict[str, Any]) -> None:
         """Recompute ``entry``'s rates and checks from its points."""
         checks: list[Check] = []
@@ -235,7 +267,9 @@ class Run:
                 ladders = {m: problem.ladder(base_method(m), self.quick) for m in entry["methods"]}
                 log.info("[%d/%d] %s: %s; %d points (%s)", i, total, problem.name, problem.title, sum(map(len, ladders.values())),
                          ", ".join(f"{m}: {problem.resolution_name} {' '.join(f'{r:g}' for r in rs)}" for m, rs in ladders.items()))
-                for method, ladder in ladders.items():
+                if self.comm.size > 1:
+                    self.shared_out(problem, entry, ladders)
+                for method, ladder in ladders.items() if self.comm.size == 1 else ():
                     if problem.kind == "curve" and ladder:
                         self.warm_up(problem, method, ladder[0])
                     for resolution in ladder:
@@ -253,21 +287,23 @@ class Run:
         except KeyboardInterrupt:
             self.state["status"] = "interrupted"
             self.save()
-            write_report(self.state, self.out)
+            if self.comm.rank == 0:
+                write_report(self.state, self.out)
             log.warning("interrupted: %s and report.md keep the %d point(s) finished", self.results_path,
                         sum(len(e["points"]) for e in self.state["problems"]))
             return int(ExitCode.INTERRUPTED)
         self.state["status"] = "complete"
         self.save()
-        write_report(self.state, self.out)
-        failed = self.state["failed checks"]
+        if self.comm.rank == 0:
+            write_report(self.state, self.out)
+        failed = self.comm.bcast(self.state["failed checks"])
         log.info("verify: %d problem(s) in %.1f s; %s; wrote %s and %s", total, self.state["wall (s)"],
                  f"{failed} check(s) FAIL" if failed else "every check passes", self.results_path, self.out / "report.md")
         return int(ExitCode.FAILURE) if failed else int(ExitCode.OK)
 
 
 def run_verify(names: Sequence[str] | None, out: str | Path, *, quick: bool = False, command: str = "peridyn verify",
-               device: str = "cpu") -> int:
+               device: str = "cpu", comm: Any = None) -> int:
     """``peridyn verify``: run the named problems (all for None) into the folder ``out``; the
     exit status (0 every band holds, 1 one fails, 130 interrupted). ``device="gpu"`` adds a
     curve on the GPU backend for every method that has one. InputError for an unknown name, an
@@ -280,4 +316,4 @@ def run_verify(names: Sequence[str] | None, out: str | Path, *, quick: bool = Fa
                              path=("--device",), fix="add --problems " + " ".join(n for n, c in PROBLEMS.items() if c.gpu_methods))
     out = Path(out)
     prepare_out(out)
-    return Run(problems, out, quick=quick, command=command, device=device).run()
+    return Run(problems, out, quick=quick, command=command, device=device, comm=comm).run()

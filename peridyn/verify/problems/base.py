@@ -124,6 +124,10 @@ class Problem:
     #: solvers only, the fields read once the solver has finished)
     gpu_methods: ClassVar[tuple[str, ...]] = ()
 
+    #: False when a method's points depend on each other (one reads what another measured):
+    #: under ``mpiexec`` one rank then measures all the points of a method
+    independent_points: ClassVar[bool] = True
+
     def curves(self, device: str = "cpu") -> tuple[str, ...]:
         """The curves run: every method, and with ``device="gpu"`` each GPU method's twin."""
         return self.methods + (tuple(m + GPU for m in self.gpu_methods) if device == "gpu" else ())

@@ -139,7 +139,9 @@ def run_deck(tree: dict[str, Any], directory: Path, files: dict[str, str] | None
         (directory / name).write_text(text, encoding="utf-8")
     deck = directory / "deck.yaml"
     deck.write_text(dump_yaml(tree), encoding="utf-8")
-    env = dict(os.environ, PERIDYN_NO_PROGRESS="1")
+    from ...parallel.comm import without_launcher
+
+    env = dict(without_launcher(dict(os.environ)), PERIDYN_NO_PROGRESS="1")  # under `mpiexec peridyn verify` too
     t0 = time.perf_counter()
     try:
         p = subprocess.run([*launcher, sys.executable, "-m", "peridyn", "run", str(deck), "--output-dir", str(directory), "--no-progress"],

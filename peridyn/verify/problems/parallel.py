@@ -57,6 +57,8 @@ class ParallelAgreement(Problem):
         self._serial: dict[tuple[str, int], RunResult] = {}
         self._tmpdir: tempfile.TemporaryDirectory | None = None
 
+    independent_points = False  # the two-rank point compares with the serial point of its method
+
     def ladder(self, method: str, quick: bool) -> list[float]:
         return [1.0, 2.0] if find_mpiexec() else [1.0]
 
