@@ -7,6 +7,8 @@ import math
 from pathlib import Path
 from typing import Any
 
+from .fit import fit_rate
+
 log = logging.getLogger("peridyn.verify")
 
 PLOT_HINT = 'pip install "peridyn[plot]"'
@@ -58,6 +60,18 @@ def figure(entry: dict[str, Any], path: Path, plt) -> bool:
         for p in pts:
             ax.annotate(f"{p['resolution']:g}", (p["wall (s)"], p["error"]), textcoords="offset points", xytext=(4, 4), fontsize=7)
         drawn = True
+    for name, (error_key, wall_key) in entry.get("companions", {}).items():
+        for method in entry["methods"]:
+            pts = [p for p in entry["points"] if p["method"] == method and "failure" not in p
+                   and (p.get("values", {}).get(error_key) or 0) > 0 and (p.get("values", {}).get(wall_key) or 0) > 0]
+            if not pts:
+                continue
+            label = f"{method}: {name}"
+            if len(pts) >= 2 and all(p.get("size") for p in pts):
+                rate = fit_rate([p["size"] for p in pts], [p["values"][error_key] for p in pts])
+                label += f" (rate {rate:.2f} in {entry['size']})" if math.isfinite(rate) else ""
+            ax.loglog([p["values"][wall_key] for p in pts], [p["values"][error_key] for p in pts], "s--", label=label)
+            drawn = True
     for q in entry.get("peridigm", []):
         if q.get("error") and q["error"] > 0 and q.get("wall (s)", 0) > 0:
             ax.loglog([q["wall (s)"]], [q["error"]], "k*", markersize=11, label=f"Peridigm: {q['method']}")

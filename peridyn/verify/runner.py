@@ -165,7 +165,8 @@ class Run:
         unfitted = {m: p.unfitted[base_method(m)] for m in curves if base_method(m) in p.unfitted}
         return {"name": p.name, "title": p.title, "unfitted": unfitted, "kind": p.kind, "computes": p.computes, "reference": p.reference,
                 "resolution": p.resolution_name, "size": p.size_name, "error": p.error_name, "methods": list(curves),
-                "points": [], "rates": {}, "checks": [], "peridigm": [dict(q) for q in p.peridigm]}
+                "points": [], "rates": {}, "checks": [], "peridigm": [dict(q) for q in p.peridigm],
+                "companions": {k: list(v) for k, v in p.companions.items()}}
 
     @property
     def results_path(self) -> Path:

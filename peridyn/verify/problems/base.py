@@ -124,6 +124,9 @@ class Problem:
     #: solvers only, the fields read once the solver has finished)
     gpu_methods: ClassVar[tuple[str, ...]] = ()
 
+    #: curves measured beside each point and drawn on the same axes: name -> (the value holding
+    #: its error, the value holding its wall time in s), e.g. Verlet's run at Newmark's steps
+    companions: ClassVar[dict[str, tuple[str, str]]] = {}
     #: False when a method's points depend on each other (one reads what another measured):
     #: under ``mpiexec`` one rank then measures all the points of a method
     independent_points: ClassVar[bool] = True

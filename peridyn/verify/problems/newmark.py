@@ -61,6 +61,7 @@ class NewmarkEnergy(Problem):
     size_name = "dt (s)"
     error_name = "relative displacement error"
     methods = VerletEnergy.methods
+    companions = {"velocity Verlet at the same dt": ("Verlet error", "Verlet wall (s)")}
     rate_band = {m: (1.8, 2.2) for m in methods}
     ENERGY_BAND = 1.0e-9
     RATIO_BAND = (0.4, 0.6)

@@ -172,3 +172,33 @@ def test_a_cpu_run_has_no_gpu_curves(tmp_path):
     problem = OnDevice()
     Run([problem], tmp_path, quick=True).run()
     assert load(tmp_path)["problems"][0]["methods"] == ["a", "b"] and {d for _, d in problem.devices} == {"cpu"}
+
+
+class WithCompanion(Power):
+    """Power with a second curve measured beside each point (error 4x smaller, same order)."""
+
+    companions = {"beside": ("beside error", "beside wall (s)")}
+
+    def measure(self, method, resolution, quick):
+        m = super().measure(method, resolution, quick)
+        m.values.update({"beside error": m.error / 4.0, "beside wall (s)": 0.01 * resolution})
+        return m
+
+
+def test_a_companion_curve_is_drawn_beside_each_method(tmp_path, monkeypatch):
+    from peridyn.verify import report
+
+    drawn = []
+    plt = report._matplotlib()
+    if plt is None:
+        pytest.skip("matplotlib is not installed")
+    real = plt.Axes.loglog
+
+    def loglog(self, *args, label=None, **kw):
+        drawn.append(label)
+        return real(self, *args, label=label, **kw)
+
+    monkeypatch.setattr(plt.Axes, "loglog", loglog)
+    assert Run([WithCompanion()], tmp_path, quick=True).run() == ExitCode.OK
+    assert load(tmp_path)["problems"][0]["companions"] == {"beside": ["beside error", "beside wall (s)"]}
+    assert "a: beside (rate 2.00 in 1/n)" in drawn and "b: beside (rate 2.00 in 1/n)" in drawn
