@@ -365,6 +365,21 @@ def cmd_new_plugin(args) -> int:
     return ExitCode.OK
 
 
+def cmd_fragments(args) -> int:
+    """Print the fragment-mass distribution of a result file (and plot it with --plot)."""
+    from .io.fragment_report import format_table, fragment_table, plot_distribution
+
+    _setup_logging(0)
+    table = fragment_table(args.result, args.frame)
+    print(format_table(table, top=args.top))
+    if args.plot:
+        if plot_distribution(table, args.plot):
+            print(f"wrote {args.plot}")
+        else:
+            log.warning('no plot: matplotlib is not installed (pip install "peridyn[plot]")')
+    return ExitCode.OK
+
+
 def cmd_verify(args) -> int:
     """Run the verification problems; 0 every band holds, 1 one fails, 130 interrupted."""
     from .parallel.comm import get_comm
@@ -425,6 +440,14 @@ def build_parser() -> argparse.ArgumentParser:
     n.add_argument("--kind", choices=("material", "damage", "contact", "compute"), default="material")
     n.add_argument("--directory", default=".", help="where to create it")
     n.set_defaults(func=cmd_new_plugin)
+
+    fr = sub.add_parser("fragments", help="the fragment-mass distribution of a result file (outputs Fragment_Id and Fragment_Mass)")
+    fr.add_argument("result", help="an Exodus file a run wrote, e.g. cylinder.e")
+    fr.add_argument("--frame", type=int, default=-1, help="output frame (default -1: the last)")
+    fr.add_argument("--top", type=int, default=10, help="how many of the largest fragments to list (default 10)")
+    fr.add_argument("--plot", metavar="PNG", help="also draw the cumulative distribution into PNG (needs peridyn[plot])")
+    common(fr)
+    fr.set_defaults(func=cmd_fragments)
 
     vf = sub.add_parser("verify", help="run the verification problems: error against wall time, convergence rates, stable time steps")
     vf.add_argument("--quick", action="store_true", help="the coarsest resolutions only (3 points per curve; a few minutes)")

@@ -35,6 +35,11 @@ BUILTIN_COMPUTES: tuple[tuple[str, str], ...] = (
     ("Node_Set_Data", f"{_R}:NodeSetData"),
     ("Nearest_Point_Data", f"{_R}:NearestPointData"),
     ("J_Integral", "peridyn.computes.j_integral:JIntegralDomain"),
+    ("Fragment_Id", "peridyn.computes.fragments:FragmentId"),
+    ("Fragment_Mass", "peridyn.computes.fragments:FragmentMass"),
+    ("Fragment_Velocity", "peridyn.computes.fragments:FragmentVelocity"),
+    ("Fragment_Kinetic_Energy", "peridyn.computes.fragments:FragmentKineticEnergy"),
+    ("Number_Of_Fragments", "peridyn.computes.fragments:NumberOfFragments"),
     ("JIntegral", "peridyn.computes.j_integral:PeridigmJIntegral"),
 )
 

@@ -81,6 +81,11 @@ def test_fragmenting_cylinder_expands_and_breaks(tmp_path):
     damage = r["element"]["Damage"][-1]
     assert 0.0 <= damage.min() and damage.max() <= 1.0
     assert np.mean(damage > 0.5) > 0.2  # breaking up: by 3e-5 s (of 1.5e-4) many points have lost half their bonds
+    count = h["global"]["Number_Of_Fragments"]
+    assert count[0] == 1 and np.all(np.diff(count) >= 0)  # one ring at first; broken bonds never heal
+    ids, mass = r["element"]["Fragment_Id"][-1], r["element"]["Fragment_Mass"][-1]
+    first = np.unique(ids, return_index=True)[1]
+    assert len(first) == count[-1] and mass[first].sum() == pytest.approx(7800.0 * np.pi * (0.025**2 - 0.020**2) * 0.100, rel=0.02)
 
 
 def test_quickstart_counts_in_the_header(capsys, monkeypatch):
