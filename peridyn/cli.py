@@ -437,7 +437,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     n = sub.add_parser("new-plugin", help="create a plugin package skeleton")
     n.add_argument("name", help="package name, e.g. my_material")
-    n.add_argument("--kind", choices=("material", "damage", "contact", "compute"), default="material")
+    n.add_argument("--kind", choices=("material", "damage", "contact", "compute", "stress-law"), default="material",
+                   help="stress-law: a numba stress law for the built-in Stress Law Correspondence material")
     n.add_argument("--directory", default=".", help="where to create it")
     n.set_defaults(func=cmd_new_plugin)
 

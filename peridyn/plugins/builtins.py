@@ -68,6 +68,7 @@ def peridyn_materials():
         ("Viscoelastic", "peridyn.materials.viscoelastic:Viscoelastic"),
         ("Pals", "peridyn.materials.pals:Pals"),
         ("Elastic Correspondence", "peridyn.materials.correspondence.classic:ElasticCorrespondence"),
+        ("Stress Law Correspondence", "peridyn.materials.correspondence.user_law:StressLawCorrespondence"),
         ("Elastic Plastic Correspondence", "peridyn.materials.correspondence.classic:ElasticPlasticCorrespondence"),
         ("Isotropic Hardening Correspondence", "peridyn.materials.correspondence.classic:IsotropicHardeningCorrespondence"),
         ("Viscoplastic Needleman Correspondence", "peridyn.materials.correspondence.classic:ViscoplasticNeedlemanCorrespondence"),

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from ..core.errors import InputError
 
-KINDS = ("material", "damage", "contact", "compute")
+KINDS = ("material", "damage", "contact", "compute", "stress-law")
 
 
 def _names(name: str) -> dict[str, str]:

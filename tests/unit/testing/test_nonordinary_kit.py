@@ -63,3 +63,12 @@ class TestIsotropicHardeningBondAssociatedCorrespondence(NonOrdinaryConformance)
     material = "Isotropic Hardening Bond Associated Correspondence"
     params = {**BA, "Hardening Rule": "Power-law",
               "Hardening Parameters": {"Yield Stress": 1e12, "Hardening Characteristic Strain": 0.01, "Hardening Exponent": 0.2}}
+
+
+class TestStressLawCorrespondenceNeoHookean(NonOrdinaryConformance):
+    """A user's stress law (the shipped Neo-Hookean, mu = G and lambda = K - 2G/3: Hooke's law
+    with the deck's constants at small strain)."""
+
+    material = "Stress Law Correspondence"
+    params = {**CLASSIC, "Stress Law": "peridyn.materials.correspondence.laws:neo_hookean",
+              "Law Parameters": [80e9, 160e9 - 2.0 * 80e9 / 3.0]}
