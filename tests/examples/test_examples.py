@@ -55,7 +55,7 @@ def header(name: str) -> str:
 
 def test_every_example_has_a_test():
     decks = sorted(p.stem for p in EXAMPLES.glob("*.yaml"))
-    assert decks == ["disk_impact", "fragmenting_cylinder", "quickstart", "wave_in_bar"]
+    assert decks == ["disk_impact", "fragmenting_cylinder", "neo_hookean_stretch", "quickstart", "wave_in_bar"]
 
 
 def test_quickstart_plate_cracks_in_the_middle(tmp_path):
@@ -217,3 +217,28 @@ def test_wave_in_bar_history_records_the_front_at_the_middle_and_the_end(wave_in
     assert abs(middle - 7.0e-6) < 0.4e-6, middle  # header: about 7 us
     assert abs(end - 15.5e-6) < 0.4e-6, end  # header: about 15.5 us
     assert np.all(np.abs(h["global"]["End_VelocityX"][t < 0.8 * 0.1 / C_P]) < 0.01)  # nothing arrives early
+
+
+def test_neo_hookean_stretch_thins_as_the_law_says(tmp_path):
+    """The middle of the block: its lateral stretch t under uniaxial stress solves
+    mu (t^2 - 1) + lambda ln(lambda_x t^2) = 0 for the measured axial stretch lambda_x, and its
+    sigma_xx is (mu (lambda_x^2 - 1) + lambda ln J) / J; a linear material would thin far more."""
+    import math
+
+    from scipy.optimize import brentq
+
+    out = run_example("neo_hookean_stretch", tmp_path)
+    r = read_results(out / "neo_hookean_stretch.e")
+    x = r["coords"]
+    u = np.stack([r["nodal"][f"Displacement{c}"][-1] for c in "XYZ"], axis=1)
+    near = lambda a: np.abs(x[:, 0] - a) < 0.0006  # noqa: E731
+    stretch = 1.0 + (u[near(0.012), 0].mean() - u[near(0.008), 0].mean()) / (x[near(0.012), 0].mean() - x[near(0.008), 0].mean())
+    mid = near(0.010)
+    width = np.ptp(x[mid, 1] + u[mid, 1]) / np.ptp(x[mid, 1])
+    mu, lam = 1.0e6, 9.3333e6
+    t = brentq(lambda t: mu * (t * t - 1.0) + lam * math.log(stretch * t * t), 0.3, 1.0)
+    J = stretch * t * t
+    assert 1.4 < stretch < 1.55
+    assert width == pytest.approx(t, rel=0.02) and abs(width - (1.0 - lam / (2.0 * (lam + mu)) * (stretch - 1.0))) > 0.04
+    sxx = np.mean(r["element"]["Cauchy_StressXX"][-1][mid])
+    assert sxx == pytest.approx((mu * (stretch**2 - 1.0) + lam * math.log(J)) / J, rel=0.02)
