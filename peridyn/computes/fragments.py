@@ -104,11 +104,8 @@ def label_fragments(sim: Any) -> FragmentState:
     v = sim.fields["Velocity"][:owned]
     ke = 0.5 * m * np.einsum("ij,ij->i", v, v)
     keys, inverse = np.unique(own, return_inverse=True)
-    part = np.zeros((keys.shape[0], 5))
-    np.add.at(part[:, 0], inverse, m)
-    for c in range(3):
-        np.add.at(part[:, 1 + c], inverse, m * v[:, c])
-    np.add.at(part[:, 4], inverse, ke)
+    part = np.zeros((keys.shape[0], 5))  # mass, momentum (3), kinetic energy
+    np.add.at(part, inverse, np.column_stack([m, m[:, None] * v, ke]))
     if sim.comm.size > 1:
         tables = sim.comm.allgather((keys, part))
         every = np.concatenate([k for k, _ in tables])

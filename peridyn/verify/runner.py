@@ -215,6 +215,20 @@ class Run:
         except Exception:  # noqa: BLE001 - reported by the point itself
             pass
 
+    def in_turn(self, problem: Problem, entry: dict[str, Any], ladders: dict[str, list[float]]) -> None:
+        """Serially: every point in turn (each method warmed up first), ``entry`` and
+        results.json updated after each."""
+        for method, ladder in ladders.items():
+            if problem.kind == "curve" and ladder:
+                self.warm_up(problem, method, ladder[0])
+            for resolution in ladder:
+                point = self.point(problem, method, resolution)
+                entry["points"].append(point)
+                self.update(problem, entry)
+                self.save()
+                log.debug("  %s %s = %g: error %s, %.3g s%s", method, problem.resolution_name, resolution, point["error"],
+                          point["wall (s)"], f", FAILED: {point['failure']}" if "failure" in point else "")
+
     def shared_out(self, problem: Problem, entry: dict[str, Any], ladders: dict[str, list[float]]) -> None:
         """Under ``mpiexec``: rank r measures the points k with k % ranks == r (in the serial
         order; each warms up the methods it measures), or, for a problem whose points of a method
@@ -268,18 +282,7 @@ class Run:
                 ladders = {m: problem.ladder(base_method(m), self.quick) for m in entry["methods"]}
                 log.info("[%d/%d] %s: %s; %d points (%s)", i, total, problem.name, problem.title, sum(map(len, ladders.values())),
                          ", ".join(f"{m}: {problem.resolution_name} {' '.join(f'{r:g}' for r in rs)}" for m, rs in ladders.items()))
-                if self.comm.size > 1:
-                    self.shared_out(problem, entry, ladders)
-                for method, ladder in ladders.items() if self.comm.size == 1 else ():
-                    if problem.kind == "curve" and ladder:
-                        self.warm_up(problem, method, ladder[0])
-                    for resolution in ladder:
-                        point = self.point(problem, method, resolution)
-                        entry["points"].append(point)
-                        self.update(problem, entry)
-                        self.save()
-                        log.debug("  %s %s = %g: error %s, %.3g s%s", method, problem.resolution_name, resolution, point["error"],
-                                  point["wall (s)"], f", FAILED: {point['failure']}" if "failure" in point else "")
+                (self.shared_out if self.comm.size > 1 else self.in_turn)(problem, entry, ladders)
                 failed = [c for c in entry["checks"] if not c["passed"]]
                 rates = ", ".join(f"{m} {r:.2f}" for m, r in entry["rates"].items() if r is not None and math.isfinite(r))
                 log.info("  %s: %.1f s%s; %d of %d checks pass%s", problem.name, time.perf_counter() - t0,

@@ -6,6 +6,7 @@ tension there, 2 P / (pi D t), reaches the material's strength.
 Units: SI throughout (m, s, kg, Pa, N)."""
 from __future__ import annotations
 
+import functools
 import math
 import tempfile
 import time
@@ -55,13 +56,14 @@ def jaw_stresses(r: np.ndarray, arc: float = BD_ARC, layers: int = 400) -> tuple
     edges = np.linspace(0.0, arc, layers + 1)
     beta = 0.5 * (edges[1:] + edges[:-1])
     step = -np.diff(jaw_weight(edges, arc))  # the pressure added by the layer of half-angle beta
-    step[-1] += float(jaw_weight(np.array([edges[-1] - 1e-12]), arc)[0])
     loads = 2.0 * np.radians(beta) * step
-    sx = sum(w * hondros(r, b)[0] for w, b in zip(loads, beta))
-    sy = sum(w * hondros(r, b)[1] for w, b in zip(loads, beta))
+    layers_xy = [hondros(r, b) for b in beta]
+    sx = sum(w * xy[0] for w, xy in zip(loads, layers_xy))
+    sy = sum(w * xy[1] for w, xy in zip(loads, layers_xy))
     return sx / loads.sum(), sy / loads.sum()
 
 
+@functools.lru_cache(maxsize=None)
 def first_damage_stress(arc: float = BD_ARC, nu: float = BD_NU) -> tuple[float, float]:
     """(2 P / (pi D t) / (E s0), r / R) at which a critical-stretch solid under the jaws'
     pressure first breaks a bond on the loaded diameter: where the strain across it, (sigma_xx -
@@ -73,6 +75,7 @@ def first_damage_stress(arc: float = BD_ARC, nu: float = BD_NU) -> tuple[float, 
     return 1.0 / float(strain[k]), float(r[k])
 
 
+@functools.lru_cache(maxsize=None)
 def centre_damage_stress(arc: float = BD_ARC, nu: float = BD_NU) -> float:
     """2 P / (pi D t) / (E s0) at which the bond across the loaded diameter at the centre reaches
     the critical stretch under the jaws' pressure."""
