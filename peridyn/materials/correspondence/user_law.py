@@ -26,14 +26,15 @@ from typing import Any, Callable, ClassVar
 
 import numpy as np
 from numba import njit, prange
-from pydantic import Field, field_validator
+from pydantic import Field, field_validator, model_validator
 
 from ...core.fields import FieldSpec, Length, Relation, Temporal
 from ...core.errors import InputError
 from .classic import ClassicCorrespondence
 from . import params as P
 
-STATE_SIZE = 9
+#: the law's state variables per point (the columns of Stress_Law_State, a tensor-sized field)
+STATE_SIZE = int(Length.TENSOR)
 
 
 class StressLawParams(P.ClassicParams):
@@ -51,9 +52,8 @@ class StressLawParams(P.ClassicParams):
         try:
             load_law(value)
         except InputError as exc:
-            raise ValueError(f"{exc.message}; {exc.fix}" if getattr(exc, "fix", None) else exc.message) from None
+            raise ValueError(f"{exc.message}; {exc.fix}") from None
         return value
-
 
     @field_validator("law_parameters")
     @classmethod
@@ -62,6 +62,18 @@ class StressLawParams(P.ClassicParams):
         if bad:
             raise ValueError(f"Law Parameters must be finite numbers, got {bad[0]!r}")
         return value
+
+
+    @model_validator(mode="after")
+    def _shapes(self) -> "StressLawParams":
+        """The law called once at F = I: a (3, 3) stress and at most 9 state variables (the kernel
+        writes them into the 9 columns of Stress_Law_State)."""
+        sigma, state = load_law(self.stress_law)(np.eye(3), np.eye(3), np.zeros(STATE_SIZE), 0.0,
+                                                 np.asarray(self.law_parameters, dtype=np.float64))
+        if np.shape(sigma) != (3, 3) or np.ndim(state) != 1 or np.shape(state)[0] > STATE_SIZE:
+            raise ValueError(f"Stress Law {self.stress_law!r} returned a stress of shape {np.shape(sigma)} and a state of shape "
+                             f"{np.shape(state)}; it must return the (3, 3) Cauchy stress and at most {STATE_SIZE} state variables")
+        return self
 
 
 def load_law(spec: str) -> Callable[..., Any]:
@@ -125,10 +137,8 @@ class StressLawCorrespondence(ClassicCorrespondence):
     def initialize(self, block) -> None:
         super().initialize(block)
         s, lo, hi = block.fields, block.start, block.stop
-        identity = np.eye(3).ravel()
-        for name in ("Stress_Law_Deformation_Gradient",):
-            s.n(name)[lo:hi] = identity
-            s.np1(name)[lo:hi] = identity
+        s.n("Stress_Law_Deformation_Gradient")[lo:hi] = np.eye(3).ravel()
+        s.np1("Stress_Law_Deformation_Gradient")[lo:hi] = np.eye(3).ravel()
         s.n("Stress_Law_State")[lo:hi] = 0.0
         s.np1("Stress_Law_State")[lo:hi] = 0.0
 

@@ -92,6 +92,17 @@ def counter(F_old, F_new, state, dt, params):
 '''
 
 
+def test_a_law_returning_the_wrong_shapes_is_an_input_error(tmp_path, monkeypatch):
+    """A state longer than the 9 columns the material keeps would be written past them."""
+    (tmp_path / "peridyn_test_long_state_law.py").write_text(
+        "import numpy as np\nfrom numba import njit\n\n\n@njit\ndef law(F_old, F_new, state, dt, params):\n"
+        "    return np.zeros((3, 3)), np.zeros(12)\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    material = dict(LAW, **{"Stress Law": "peridyn_test_long_state_law:law", "Law Parameters": []})
+    with pytest.raises(Exception, match="at most 9 state variables"):
+        build_simulation(prescribed(np.eye(3), material=material), directory=tmp_path)
+
+
 def test_the_state_and_the_old_deformation_gradient_come_from_the_last_step(tmp_path, monkeypatch):
     (tmp_path / "peridyn_test_counter_law.py").write_text(COUNTER)
     monkeypatch.syspath_prepend(str(tmp_path))
