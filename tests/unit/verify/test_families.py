@@ -8,19 +8,7 @@ import pytest
 from peridyn.verify.problems.families import FAMILIES, Diffusion, PlasticityUniaxial, ViscoelasticRelaxation
 from peridyn.verify.runner import Run
 
-
-def ladder(problem, method, resolutions=None):
-    """Run ``method``'s quick ladder (or ``resolutions``) in-process: (points, checks), the points
-    as the runner records them."""
-    points = []
-    for r in resolutions or problem.ladder(method, True):
-        m = problem.measure(method, r, True)
-        points.append({"resolution": r, "size": m.size, "error": m.error, "steps": m.steps, "values": dict(m.values)})
-    return points, problem.checks(method, points, True)
-
-
-def failed(checks):
-    return [c for c in checks if not c.passed]
+from .test_contact_verify import failed, ladder
 
 
 def test_every_problem_is_described():

@@ -27,21 +27,9 @@ def run(tmp_path):
 def test_a_ten_percent_wrong_shear_modulus_fails_both_materials(tmp_path, monkeypatch, scale):
     """G 10 % off moves E by 8.6 %: past the correspondence's 2 % band around E0 and the LPS
     band of 3 % around its lattice-plus-surface prediction, at every ratio."""
-    from peridyn.materials.correspondence.classic import ElasticCorrespondence
-    from peridyn.materials.elastic import Elastic
+    from .test_elasticity import wrong_shear_modulus
 
-    lps_init, corr_init = Elastic.__init__, ElasticCorrespondence.__init__
-
-    def lps(self, *args, **kwargs):
-        lps_init(self, *args, **kwargs)
-        self.mu *= scale
-
-    def corr(self, *args, **kwargs):
-        corr_init(self, *args, **kwargs)
-        self.G *= scale
-
-    monkeypatch.setattr(Elastic, "__init__", lps)
-    monkeypatch.setattr(ElasticCorrespondence, "__init__", corr)
+    wrong_shear_modulus(monkeypatch, scale)
     code, entry = run(tmp_path)
     assert code == ExitCode.FAILURE
     assert all("failure" not in p for p in entry["points"])
