@@ -3,7 +3,8 @@ every field of every output frame and the energy account, with damage, influence
 thermal strain, body forces and prescribed motion. The runs use numba-cuda's simulator
 (``NUMBA_ENABLE_CUDASIM=1``, tests/conftest.py) at small sizes: there the arithmetic is the CPU's
 and the fields are equal; on a GPU the bound is round-off, 1e-12 of the largest value of each
-quantity (all components of a vector)."""
+quantity (all components of a vector), and for force densities the force of a stretch round-off
+in every bond (:func:`stretch_roundoff_force`)."""
 from __future__ import annotations
 
 import copy
@@ -144,6 +145,20 @@ def quantity_scale(fields: dict[str, np.ndarray], name: str) -> float:
     return max(float(np.max(np.abs(f), initial=0.0)) for f in parts)
 
 
+def stretch_roundoff_force(deck: dict) -> float:
+    """The force density (N/m^3) of a stretch of one machine epsilon in every bond of a family,
+    24 K eps / delta (bond-based: c = 18 K / (pi delta^4) over a family of volume 4/3 pi delta^3).
+    A bond's stretch (|eta| - |xi|) / |xi| is the difference of two lengths of about delta, each
+    right to half an ulp, so it is off by about eps whatever the stretch: the GPU, which forms
+    |eta| with fused multiply-adds, differs from the CPU in that last bit. An interior point's
+    force density is a near-cancelling sum of its bonds' forces, so these differences stand out
+    against the quantity's own scale (measured on an H200: 1e-9 of it) but not against this bound."""
+    tree = deck["Peridigm"]
+    bulk = max(m["Bulk Modulus"] for m in tree["Materials"].values())
+    horizon = min(b["Horizon"] for b in tree["Blocks"].values())
+    return 24.0 * bulk * np.finfo(float).eps / horizon
+
+
 def energy(log: str) -> list[float]:
     line = next(s for s in log.splitlines() if s.strip().startswith("energy:"))
     return [float(v) for v in re.findall(r"[-+]?\d+\.?\d*(?:e[-+]?\d+)?", line.split(";")[0])]
@@ -160,7 +175,10 @@ def test_a_gpu_run_gives_the_cpu_run_fields_and_energies(tmp_path, case):
     a, b = frames(tmp_path / "cpu" / "run.e"), frames(tmp_path / "gpu" / "run.e")
     assert a.keys() == b.keys() and len(a["time"]) >= 4  # steps 0, 2, 4, 6 (, 8)
     for k in a:
-        np.testing.assert_allclose(b[k], a[k], rtol=RTOL, atol=RTOL * quantity_scale(a, k), err_msg=f"{case}: {k}")
+        atol = RTOL * quantity_scale(a, k)
+        if k.startswith("Force_Density") and not SIMULATED:
+            atol = max(atol, stretch_roundoff_force(deck))
+        np.testing.assert_allclose(b[k], a[k], rtol=RTOL, atol=atol, err_msg=f"{case}: {k}")
     e_cpu = energy(cpu.stderr)  # summed in another order on the device: round-off of the largest
     np.testing.assert_allclose(energy(gpu.stderr), e_cpu, rtol=1e-12, atol=1e-12 * max(abs(e) for e in e_cpu))
     if "Contact" in deck["Peridigm"]:
