@@ -1,4 +1,6 @@
 """Every correspondence material passes the non-ordinary conformance suite."""
+import pytest
+
 from peridyn.testing import NonOrdinaryConformance
 
 ELASTIC = {"Density": 7800.0, "Bulk Modulus": 160e9, "Shear Modulus": 80e9}
@@ -72,3 +74,20 @@ class TestStressLawCorrespondenceNeoHookean(NonOrdinaryConformance):
     material = "Stress Law Correspondence"
     params = {**CLASSIC, "Stress Law": "peridyn.materials.correspondence.laws:neo_hookean",
               "Law Parameters": [80e9, 160e9 - 2.0 * 80e9 / 3.0]}
+
+
+@pytest.mark.parametrize("factor", [1.2, 0.8, -1.0])
+def test_the_moduli_check_catches_a_stress_law_of_the_wrong_stiffness(factor):
+    """The same law with its constants scaled, the deck's Bulk and Shear Modulus unchanged: it
+    passes the rigid-motion, momentum and uniform-stretch checks (any Hookean law does), not the
+    stated moduli."""
+
+    class Scaled(TestStressLawCorrespondenceNeoHookean):
+        params = {**TestStressLawCorrespondenceNeoHookean.params,
+                  "Law Parameters": [factor * v for v in TestStressLawCorrespondenceNeoHookean.params["Law Parameters"]]}
+
+    kit = Scaled()
+    if factor > 0:
+        kit.test_homogeneous_stretch_gives_uniform_interior_force()
+    with pytest.raises(AssertionError):
+        kit.test_stated_moduli_under_quadratic_fields()
