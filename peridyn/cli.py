@@ -314,7 +314,7 @@ def cmd_plugins(args) -> int:
     reg = get_registry()
     for kind, (_, human, _) in KINDS.items():
         names = reg.names(kind)
-        print(f"{human}s ({len(names)}):")
+        print(f"{human}{'es' if human.endswith('s') else 's'} ({len(names)}):")
         for name in names:
             entry = reg.entry(kind, name)
             try:
@@ -327,7 +327,7 @@ def cmd_plugins(args) -> int:
             if params is None or args.brief:
                 continue
             for row in describe_params(params):
-                req = "required" if row["required"] else f"default {row['default']!r}"
+                req = "required" if row["required"] else ("optional" if row["default"] is None else f"default {row['default']!r}")
                 desc = f" - {row['description']}" if row["description"] else ""
                 print(f"      {row['name']}: {row['type']} ({req}){desc}")
     if reg.failed:
@@ -338,6 +338,12 @@ def cmd_plugins(args) -> int:
 
 
 def cmd_schema(args) -> int:
+    if args.reference:
+        from .deck.reference import reference_markdown
+
+        Path(args.reference).write_text(reference_markdown())
+        print(f"wrote {args.reference}")
+        return ExitCode.OK
     from .deck.schema import deck_json_schema
 
     text = json.dumps(deck_json_schema(), indent=2)
@@ -428,6 +434,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("schema", help="JSON Schema of the deck format, installed plugins included")
     s.add_argument("-o", "--output", help="write to a file")
+    s.add_argument("--reference", metavar="FILE", help="write the parameter reference (Markdown, docs/reference.md) to FILE instead")
     s.set_defaults(func=cmd_schema)
 
     cv = sub.add_parser("convert", help="convert a Peridigm XML deck to YAML")

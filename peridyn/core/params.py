@@ -221,19 +221,52 @@ def reading_field(key: str) -> Any | None:
     return None
 
 
-def describe_params(params_cls: type[BaseModel]) -> list[dict[str, Any]]:
-    """One dict per parameter: deck name, type, default, required, description (for docs/CLI)."""
+def type_text(annotation: Any) -> str:
+    """A parameter's type in words: ``float``, ``float or text``, ``one of 'A', 'B'``, ``list of
+    float``, ``section`` (a nested list of parameters); None (optional) is left out."""
+    origin = typing.get_origin(annotation)
+    if origin is typing.Annotated:
+        return type_text(typing.get_args(annotation)[0])
+    if origin in (typing.Union, types.UnionType):
+        parts = [type_text(a) for a in typing.get_args(annotation) if a is not type(None)]
+        return " or ".join(dict.fromkeys(parts))
+    if origin is typing.Literal:
+        return "one of " + ", ".join(repr(a) for a in typing.get_args(annotation))
+    if origin in (list, tuple, set, frozenset):
+        args = [a for a in typing.get_args(annotation) if a is not Ellipsis]
+        return "list of " + (" or ".join(dict.fromkeys(type_text(a) for a in args)) if args else "values")
+    if origin in (dict, typing.Mapping) or annotation is dict:
+        return "named entries"
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return "section"
+    return {str: "text", float: "number", int: "integer", bool: "true/false"}.get(annotation, getattr(annotation, "__name__", str(annotation)))
+
+
+def _nested_model(annotation: Any) -> type[BaseModel] | None:
+    origin = typing.get_origin(annotation)
+    if origin is typing.Annotated:
+        return _nested_model(typing.get_args(annotation)[0])
+    if origin in (typing.Union, types.UnionType):
+        return next((m for m in map(_nested_model, typing.get_args(annotation)) if m is not None), None)
+    return annotation if isinstance(annotation, type) and issubclass(annotation, BaseModel) else None
+
+
+def describe_params(params_cls: type[BaseModel], prefix: str = "") -> list[dict[str, Any]]:
+    """One dict per parameter: deck name (``Verlet > Safety Factor`` for a nested section's),
+    type in words, default, required, description (for docs and ``peridyn plugins``); a nested
+    section's own parameters follow its row."""
     rows = []
     for name, f in params_cls.model_fields.items():
-        ann = f.annotation
-        type_name = getattr(ann, "__name__", None) or str(ann).replace("typing.", "")
+        nested = _nested_model(f.annotation)
         rows.append(
             {
-                "name": f.alias or name,
-                "type": type_name,
+                "name": prefix + (f.alias or name),
+                "type": type_text(f.annotation),
                 "required": f.is_required(),
-                "default": None if f.is_required() else f.get_default(call_default_factory=True),
+                "default": None if f.is_required() or nested is not None else f.get_default(call_default_factory=True),
                 "description": f.description or "",
             }
         )
+        if nested is not None:
+            rows.extend(describe_params(nested, prefix + (f.alias or name) + " > "))
     return rows
