@@ -386,6 +386,16 @@ def cmd_fragments(args) -> int:
     return ExitCode.OK
 
 
+def cmd_plot(args) -> int:
+    """PREFIX_history.png and PREFIX_frame<K>_<field>.png of a result file."""
+    from .io.plot import plot
+
+    _setup_logging(0)
+    for png in plot(args.result, frames=args.frames, field=args.field, view=args.view, prefix=args.out):
+        print(f"wrote {png}")
+    return ExitCode.OK
+
+
 def cmd_verify(args) -> int:
     """Run the verification problems; 0 every band holds, 1 one fails, 130 interrupted."""
     from .parallel.comm import get_comm
@@ -456,6 +466,16 @@ def build_parser() -> argparse.ArgumentParser:
     fr.add_argument("--plot", metavar="PNG", help="also draw the cumulative distribution into PNG (needs peridyn[plot])")
     common(fr)
     fr.set_defaults(func=cmd_fragments)
+
+    pl = sub.add_parser("plot", help="pictures of a result file: energy, momentum and damage histories, frames (needs peridyn[plot])")
+    pl.add_argument("result", help="an Exodus file a run wrote, e.g. cylinder.e")
+    pl.add_argument("--frames", type=int, nargs="+", metavar="K", help="output frames to draw (default: the last; -1 is the last)")
+    pl.add_argument("--field", help="colour the points by this output (default Damage, else the displacement's magnitude); "
+                                    "a vector's name (Velocity) draws its magnitude")
+    pl.add_argument("--view", choices=("xy", "xz", "yz"), help="the coordinate plane to project on (default: the body's two largest extents)")
+    pl.add_argument("--out", metavar="PREFIX", help="file name prefix (default: the result's name without .e)")
+    common(pl)
+    pl.set_defaults(func=cmd_plot)
 
     vf = sub.add_parser("verify", help="run the verification problems: error against wall time, convergence rates, stable time steps")
     vf.add_argument("--quick", action="store_true", help="the coarsest resolutions only (3 points per curve; a few minutes)")

@@ -78,12 +78,10 @@ def format_table(t: dict[str, Any], top: int = 10) -> str:
 def plot_distribution(t: dict[str, Any], png: str | Path) -> bool:
     """The cumulative distribution: the number of fragments of at least a mass, against the mass
     (log-log); False without matplotlib."""
-    try:
-        import matplotlib
+    from .plot import pyplot
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
+    plt = pyplot()
+    if plt is None:
         return False
     m = np.sort(t["mass"])[::-1]
     fig, ax = plt.subplots(figsize=(5.5, 4.0))

@@ -7,6 +7,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+from ..io.plot import pyplot
 from .fit import fit_rate
 
 log = logging.getLogger("peridyn.verify")
@@ -31,18 +32,6 @@ def _fmt(value: Any) -> str:
             return str(value)
         return f"{value:.4g}" if 1e-3 <= abs(value) < 1e5 or value == 0 else f"{value:.3e}"
     return str(value)
-
-
-def _matplotlib():
-    """pyplot with the Agg backend, or None when matplotlib is not installed."""
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        return None
-    return plt
 
 
 def figure(entry: dict[str, Any], path: Path, plt) -> bool:
@@ -111,7 +100,7 @@ def write_report(state: dict[str, Any], out: Path, *, figures: bool = True) -> P
     """Write ``out/report.md`` (and ``out/<problem>.png`` per curve problem when matplotlib is
     installed; one log line saying how to get them otherwise). Returns the report's path."""
     out = Path(out)
-    plt = _matplotlib() if figures else None
+    plt = pyplot() if figures else None
     if figures and plt is None:
         log.warning("figures skipped: matplotlib is not installed (%s gives them); report.md is written without them", PLOT_HINT)
     m, v = state["machine"], state["peridyn"]

@@ -189,7 +189,7 @@ def test_a_companion_curve_is_drawn_beside_each_method(tmp_path, monkeypatch):
     from peridyn.verify import report
 
     drawn = []
-    plt = report._matplotlib()
+    plt = report.pyplot()
     if plt is None:
         pytest.skip("matplotlib is not installed")
     real = plt.Axes.loglog
