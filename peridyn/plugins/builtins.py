@@ -62,6 +62,8 @@ def peridyn_materials():
         ("Multiphysics Elastic", "peridyn.materials.multiphysics_elastic:MultiphysicsElastic"),
         ("Elastic Bond Based", "peridyn.materials.elastic_bond_based:ElasticBondBased"),
         ("Linear LPS Partial Volume", "peridyn.materials.linear_lps_pv:LinearLPSPartialVolume"),
+        ("Regularized Nonlinear Bond", "peridyn.materials.rnp:RNPBond"),
+        ("Nonlocal Double Well State", "peridyn.materials.double_well:DoubleWellState"),
         ("Elastic Partial Volume", "peridyn.materials.linear_lps_pv:ElasticPartialVolume"),
         ("Elastic Plastic", "peridyn.materials.elastic_plastic:ElasticPlastic"),
         ("Elastic Plastic Hardening", "peridyn.materials.elastic_plastic_hardening:ElasticPlasticHardening"),
