@@ -45,7 +45,8 @@ class ContactManager:
         self.search_radius = float(p.search_radius)
         self.frequency = int(p.search_frequency)
         mentry = entry.model
-        self.model = mentry.cls(mentry.params, options={"deck_dir": sim.deck.directory, "path": mentry.path})
+        self.model = mentry.cls(mentry.params, options={"deck_dir": sim.deck.directory, "path": mentry.path,
+                                                        "blocks": [(blk.name, blk.material) for blk in sim.blocks]})
         self.rc = float(self.model.contact_radius)
         largest = max((float(blk.horizon) for blk in sim.blocks if blk.horizon is not None), default=0.0)
         if largest > 0 and self.rc > 100.0 * largest:
@@ -235,8 +236,13 @@ class ContactManager:
         return self._dt_stable
 
     def stiffness_ratio(self) -> float:
-        """Spring Constant over the smallest bulk modulus of the blocks."""
+        """Spring Constant (for another model: the Spring Constant of Short Range Force springs as
+        stiff as its stiffest, pi delta^5 / 18 times its pair stiffness) over the smallest bulk
+        modulus of the blocks."""
         k = float(getattr(self.model.params, "spring_constant", math.nan))
+        if not math.isfinite(k):
+            stiffness = self.model.pair_stiffness(self.block_horizon)
+            k = float(np.max(stiffness * np.pi * self.block_horizon**5 / 18.0)) if stiffness is not None else math.nan
         moduli = [float(blk.material.bulk_modulus) for blk in self.sim.blocks if blk.material.bulk_modulus > 0]
         return k / min(moduli) if moduli else math.nan
 
@@ -246,19 +252,21 @@ class ContactManager:
             dt_c = self.stable_time_step()
         except Exception:  # a diagnosis must never raise
             return ""
-        k = getattr(self.model.params, "spring_constant", float("nan"))
+        k = getattr(self.model.params, "spring_constant", None)
+        key = type(self.model).stiffness_key
+        springs = f"{key} {k:.4g}, " if isinstance(k, float) else "as stiff as Short Range Force springs of "
         if dt > dt_c:
             return (
-                f"contact springs (Spring Constant {k:.4g}, {self.stiffness_ratio():.3g} times the bulk modulus) lower the stable "
+                f"contact springs ({springs}{self.stiffness_ratio():.3g} times the bulk modulus) lower the stable "
                 f"time step to about {dt_c:.4g}, below the time step {dt:.4g}; use a smaller 'Safety Factor' or 'Fixed dt', or a "
-                "softer 'Spring Constant'"
+                f"softer '{key}'"
             )
         if self.stats["min_distance"] < self.rc:
             return (
-                f"contact springs (Spring Constant {k:.4g}, {self.stiffness_ratio():.3g} times the bulk modulus) were active "
+                f"contact springs ({springs}{self.stiffness_ratio():.3g} times the bulk modulus) were active "
                 f"(smallest pair distance {self.stats['min_distance']:.4g}, contact radius {self.rc:.4g}); the time step {dt:.4g} is "
                 f"below the estimate with contact {dt_c:.4g}, which long contacts of stiff springs can still exceed: halve the "
-                "'Safety Factor' or 'Fixed dt', or use a softer 'Spring Constant'"
+                f"'Safety Factor' or 'Fixed dt', or use a softer '{key}'"
             )
         return ""
 

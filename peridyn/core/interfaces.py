@@ -527,6 +527,8 @@ class ContactModel(ABC):
     Params: ClassVar[type[ModelParams]]
     #: where the contact force is computed: "cpu" (see Material.devices)
     devices: ClassVar[frozenset[str]] = frozenset({"cpu"})
+    #: the deck key(s) that set the contact stiffness, named in advice on the time step
+    stiffness_key: ClassVar[str] = "Spring Constant"
 
     def __init__(self, params: ModelParams, *, options: dict[str, Any] | None = None) -> None:
         self.params = params

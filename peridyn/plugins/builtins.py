@@ -102,6 +102,7 @@ def peridyn_contact_models():
     return [
         ("Short Range Force", "peridyn.contact.short_range:ShortRangeForce"),
         ("Time Dependent Short Range Force", "peridyn.contact.short_range:TimeDependentShortRangeForce"),
+        ("Penalty Contact", "peridyn.contact.penalty:PenaltyContact"),
     ]
 
 

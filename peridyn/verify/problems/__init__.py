@@ -5,6 +5,7 @@ from .bar import ForceConvergence, WaveSpeed
 from .branching import GlassBranching
 from .brazilian import BrazilianDisk
 from .contact import ContactStability, Hertz
+from .contact_penalty import HertzPenalty
 from .base import Check, Measurement, Problem
 from .dispersion import Dispersion
 from .dynamics import Stability, VerletEnergy
@@ -24,7 +25,7 @@ PROBLEMS: dict[str, type[Problem]] = {
     for cls in (
         WaveSpeed, Dispersion, ForceConvergence, VerletEnergy, NewmarkEnergy, Stability, ContactStability, ParallelAgreement, ExtremeCases, StaticModulus,
         PoissonRatio, Kirsch, DeltaConvergence, Griffith, JIntegral, KalthoffWinkler, GlassBranching, BrazilianDisk, Diffusion, ViscoelasticRelaxation, PlasticityUniaxial,
-        Hertz,
+        Hertz, HertzPenalty,
     )
 }
 

@@ -287,14 +287,17 @@ class Hertz(Problem):
             with patch.object(sim, "write_output", record):  # the harness reads every step, as an output would
                 Verlet(_section(info["duration"], {"Fixed dt": dt})).run(sim)
             st = sim.stats["solvers"][-1]
-            spring_constant = float(tree["Contact"]["Models"]["Springs"]["Spring Constant"])
-            law = self.law_force(sim, top, spring_constant, info["rc"])
+            law = self.contact_law(sim, top, tree, info["rc"])
             model = f["Contact_Force_Density"][top] * f["Volume"][top]
             a = np.array(rows)
             return Indentation(info["h"], a[:, 0], a[:, 1], a[:, 2], a[:, 3], a[:, 4], float(-x[deep, 2]),
                                float(np.mean(np.linalg.norm(x[ring, :2], axis=1))),
                                float(np.linalg.norm(model - law) / max(float(np.linalg.norm(law)), 1e-300)), int(st["steps"]),
                                int(n_own), int(sim.bonds.num_bonds), float(st["energy"]["max_relative_error"]))
+
+    def contact_law(self, sim: Any, i: int, tree: dict[str, Any], rc: float) -> np.ndarray:
+        """The contact force (N) on point i that the deck's contact model must give (``law_force``)."""
+        return self.law_force(sim, i, float(tree["Contact"]["Models"]["Springs"]["Spring Constant"]), rc)
 
     @staticmethod
     def law_force(sim: Any, i: int, spring: float, rc: float) -> np.ndarray:
