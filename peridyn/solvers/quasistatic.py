@@ -24,7 +24,10 @@ continues from the last converged step with explicit dynamics (``Switch to Verle
 A step that fails for good stops the run with a :class:`LoadStepError` (exit status 3) naming the
 load step, its time and size, the residual and the tolerance; the output of the converged steps
 is kept. (Peridigm prints "Aborting analysis" there, yet runs the following solver sections.)
-``sim.stats["solvers"]`` records every attempt (``load_steps``: time, size, iterations, residual,
+With ``Model Reduction`` (``Type: Static Condensation``, :mod:`.model_reduction`) each
+Newton system is solved by static (Guyan) condensation of a region's displacement components
+onto the rest (:mod:`peridyn.solvers.linalg.guyan`): a direct solve, equal to the full one to
+round-off. ``sim.stats["solvers"]`` records every attempt (``load_steps``: time, size, iterations, residual,
 tolerance, outcome) and the number of halvings (``load_step_reductions``). Reactions:
 ``Force_Density`` (and ``Force`` = V f) at the prescribed points hold the
 internal force at the converged configuration, i.e. the negated reactions, as Peridigm writes.
@@ -44,6 +47,7 @@ from ..core.interfaces import Solver
 from ..core.params import ModelParams
 from .common import SolverSection
 from .linalg.linear import METHODS, LinearSolver
+from .model_reduction import ModelReductionParams
 from .newton import (
     ImplicitProblem,
     check_time_steps,
@@ -117,7 +121,19 @@ class QuasiStaticParams(LoadStepKeys):
         "Belos (always Peridigm's CG/GMRES), Direct (sparse LU), AMG (AMG-preconditioned CG), Auto",
     )
     linear_solver_tolerance: float = Field(1.0e-8, alias="Linear Solver Tolerance", gt=0, lt=1, description="peridyn: relative tolerance of the AMG solver")
+    model_reduction: ModelReductionParams | None = Field(
+        None, alias="Model Reduction", description="static (Guyan) condensation of the Newton systems onto the points outside a region (a direct solve)"
+    )
     ignored_keys = frozenset({"Verbose"})
+
+    @model_validator(mode="after")
+    def _reduction_solves(self):
+        if self.model_reduction is not None and self.given("linear_solver") and self.linear_solver != "Direct":
+            raise ValueError(
+                f"'Model Reduction' solves the Newton systems directly (by condensation); 'Linear Solver: {self.linear_solver}' contradicts it: "
+                "remove one of them"
+            )
+        return self
 
 
 class QuasiStaticSection(SolverSection):
@@ -148,10 +164,18 @@ class QuasiStatic(Solver):
         return "default"
 
     def planned_steps(self, sim) -> int | None:
+        if self.params.quasi_static.model_reduction is not None:  # its input errors at set-up
+            from .model_reduction import validate
+
+            validate(sim, self.params.quasi_static.model_reduction, self.reduction_path)
         adaptive = self.params.quasi_static.adaptive
         if adaptive is not None and adaptive.switch_to_verlet is not None:  # its own limits, at set-up
             fallback_verlet(self, sim, self.params.initial_time, self.params.final_time)
         return planned_load_steps(self.params, self.params.quasi_static)
+
+    @property
+    def reduction_path(self) -> tuple[str, ...]:
+        return (self.section, "QuasiStatic", "Model Reduction")
 
     def run(self, sim) -> None:
         with threads_for(sim):
@@ -208,14 +232,12 @@ class QuasiStaticRun:
         self.du = np.zeros((sim.num_local, 3))
         T = self.problem.tangent
         q = self.q
-        self.linear = LinearSolver(
-            method=q.linear_solver,
-            tol=q.belos_relative_tolerance if q.linear_solver in ("Belos", "Adaptive") else q.linear_solver_tolerance,
-            maxiter=q.belos_maximum_iterations if q.linear_solver in ("Belos", "Adaptive") else q.belos_maximum_iterations or 2000,
-            belos_method=q.belos_linear_solver,
-            symmetric=True,
-            coords=T.to_rows(self.x).reshape(n, 3),
-        )
+        if q.model_reduction is not None:
+            from .model_reduction import condensed_solver
+
+            self.linear = condensed_solver(sim, T, q.model_reduction, solver.reduction_path)
+        else:
+            self.linear = self.linear_solver(T)
         self.heuristics = not self.p.disable_heuristics
         self.dt = 1.0
         self.tangent_reuses = 0
@@ -223,6 +245,18 @@ class QuasiStaticRun:
         self.attempts: list[dict] = []  # per load step attempt: step, time, dt, iterations, residual, tolerance, outcome
         self.step = 0  # the load step being solved
         self.failure: str | None = None  # why the last Newton loop stopped early (a failed linear solve)
+
+    def linear_solver(self, T) -> LinearSolver:
+        """The deck's ``Linear Solver`` on tangent T."""
+        q = self.q
+        return LinearSolver(
+            method=q.linear_solver,
+            tol=q.belos_relative_tolerance if q.linear_solver in ("Belos", "Adaptive") else q.linear_solver_tolerance,
+            maxiter=q.belos_maximum_iterations if q.linear_solver in ("Belos", "Adaptive") else q.belos_maximum_iterations or 2000,
+            belos_method=q.belos_linear_solver,
+            symmetric=True,
+            coords=T.to_rows(self.x).reshape(self.n, 3),
+        )
 
     # -- state ----------------------------------------------------------------------------------
     def set_trial(self, du: np.ndarray) -> None:
@@ -443,7 +477,7 @@ class QuasiStaticRun:
             linear_solver=lin._chosen or lin.method, linear_solve_time=lin.solve_time, linear_setup_time=lin.setup_time,
             linear_iterations=lin.iterations, linear_solves=lin.solves, converged=not failed_qs, residuals=self.residuals,
             load_steps=self.attempts, load_step_reductions=sum(a["outcome"] == "cut back" for a in self.attempts),
-            tangent_reuses=self.tangent_reuses,
+            tangent_reuses=self.tangent_reuses, **({"model_reduction": lin.summary()} if self.q.model_reduction is not None else {}),
         )
         if failed_qs:
             if adaptive is not None and adaptive.switch_to_verlet is not None:

@@ -7,7 +7,8 @@
   ``LinearSolver`` choice of method and preconditioner;
 * :mod:`.aztecoo` - AztecOO's GMRES with its safeguards (NOXQuasiStatic);
 * :mod:`.ilu` - ILU(0) on the tangent's pattern (AztecOO's "ilu" preconditioner);
-* :mod:`.amg` - the algebraic multigrid preconditioner.
+* :mod:`.amg` - the algebraic multigrid preconditioner;
+* :mod:`.guyan` - static (Guyan) condensation of a linear system onto master unknowns.
 
 The solvers (``peridyn.solvers.quasistatic``, ``nox``, ``implicit``, ...) import these; these
 import nothing of the solvers.
