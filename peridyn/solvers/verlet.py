@@ -134,6 +134,14 @@ class Verlet(Solver):
             from .verlet_gpu import run
 
             return run(self, sim)
+        for _ in self.steps(sim):
+            pass
+
+    def steps(self, sim):
+        """The CPU run as a generator: yields the step number after step 0 (the initial force
+        evaluation and output at t_initial) and after each time step; the run's statistics and
+        energy verdict follow the last one. ``run`` consumes it whole; ``peridyn.api.Model``
+        advances it step by step (the same operations in the same order)."""
         s = self.params
         dt, dt_crit = self.time_step(sim)
         t0 = s.initial_time
@@ -172,6 +180,7 @@ class Verlet(Solver):
         f_old = np.empty_like(f["Force_Density"])
         b_old = np.empty_like(f["External_Force_Density"]) if has_b else None
         du = np.empty_like(u)
+        yield 0
         progress = Progress(nsteps, f"{self.section}", enabled=sim.progress)
         wall0 = _time.perf_counter()
         force_time = 0.0
@@ -202,6 +211,7 @@ class Verlet(Solver):
             sim.write_output(t)
             sim.advance()
             progress.update(step)
+            yield step
         monitor.flush()
         progress.close()
         wall = _time.perf_counter() - wall0

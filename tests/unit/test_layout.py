@@ -20,7 +20,7 @@ PACKAGE = Path(peridyn.__file__).parent
 #: (top-level modules such as cli.py count as packages of their own)
 LAYERS = [
     ["__main__"],
-    ["cli"],
+    ["cli", "api"],  # the command and the Python API: two front doors, neither imports the other
     ["verify"],
     ["testing"],
     ["engine"],

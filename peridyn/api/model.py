@@ -1,0 +1,443 @@
+"""``Model``: a deck's simulation driven from Python: run, step, fields in mesh order, boundary
+conditions and computes given as Python callables.
+
+Point order: every array the API takes or returns is in *mesh order*, the order of the points
+in the discretization (the Exodus node order of the output files); ``model.ids`` holds their
+1-based global ids (``Element_Id`` in the output). Internally the engine keeps its own order
+(blocks, then a space-filling curve); the API maps between the two.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import os
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any, Union
+
+import numpy as np
+
+from ..core.errors import InputError, InstabilityError, PeridynError
+from ..core.fields import FieldSpec, Length, Relation, Temporal
+from ..deck.model import tidy
+from .decks import DeckLike, build_deck, points_deck
+
+log = logging.getLogger("peridyn.api")
+
+#: a node set: a deck node-set name, 0-based mesh indices, a (n,) bool mask in mesh order, or a
+#: callable of the (n, 3) reference positions returning such a mask
+NodesLike = Union[str, np.ndarray, list, Callable[[np.ndarray], np.ndarray]]
+
+
+class RunEnded(PeridynError):
+    """The model's solvers have all run (or the run was stopped by an error): nothing to step."""
+
+
+class _PythonValue:
+    """A condition's value as a Python callable ``f(t, x) -> (k,)``, with the call signature of a
+    compiled deck expression (``expr(gid, x=, y=, z=, t=)``)."""
+
+    def __init__(self, fn: Callable[[float, np.ndarray], Any]) -> None:
+        self.fn = fn
+
+    def __call__(self, gid, *, x, y, z, t):
+        return self.fn(float(t), np.stack([x, y, z], axis=1))
+
+
+class Model:
+    """A simulation built from a deck, advanced from Python.
+
+    ``deck``: a deck file (YAML or Peridigm XML), a dict deck (the YAML tree, no file), or a
+    validated ``Deck``. ``output_dir``: where the deck's output files go (created with its
+    parents when missing; default: the current folder). ``directory``: the folder relative file
+    names of a dict deck are read from (default: the current folder). ``write_files=False``:
+    outputs write nothing. ``backend``, ``device``: as ``peridyn run --backend/--device``.
+
+    The run follows the deck's solver sections in order, exactly as ``peridyn run`` does (the
+    same operations, bit for bit). ``run()`` runs to the end, ``run(until=t)`` and ``step(n)``
+    advance an explicit (Verlet, CPU) section step by step. The output files are complete when
+    the last section ends, or on ``close()`` (the frames written so far).
+    """
+
+    def __init__(self, deck: DeckLike, *, output_dir: str | os.PathLike | None = None, directory: str | os.PathLike | None = None,
+                 write_files: bool = True, progress: bool = False, backend: str | None = None, device: str | None = None) -> None:
+        from ..engine.output import check_output_names, lock_outputs, release_locks
+        from ..engine.simulation import Simulation
+
+        self.deck = build_deck(deck, directory)
+        self.output_dir = Path(output_dir) if output_dir is not None else Path.cwd()
+        self._locks: list = []
+        if write_files:
+            _prepare_output_dir(self.output_dir)
+            check_output_names(self.deck, self.output_dir)
+            self._locks = lock_outputs(self.deck, self.output_dir)
+        try:
+            #: the engine's Simulation (internal point order; see the module docstring)
+            self.sim = Simulation(self.deck, output_dir=self.output_dir, progress=progress, write_files=write_files,
+                                  backend=backend, device=device)
+        except BaseException:
+            release_locks(self._locks)
+            raise
+        sim = self.sim
+        if not write_files:  # the engine's write_files only keeps set-up from writing; a run writes nothing either
+            sim.outputs.writers = []
+        self._owned = sim.mothership_of_local[: sim.num_owned]
+        self._plan: list | None = None
+        self._section = 0  # index of the solver section that runs next (or now)
+        self._generator = None  # the stepping section's generator
+        self._started = False
+        self._ended = False
+        #: time steps (or whole non-explicit sections) taken so far
+        self.steps_taken = 0
+        self._computes: dict[str, tuple[Callable[["Model"], Any], int]] = {}
+        self._history: dict[str, tuple[list[float], list[Any]]] = {}
+
+    @classmethod
+    def from_points(cls, x: np.ndarray, volume: np.ndarray | float, deck: Mapping, *, block_id: np.ndarray | int = 1,
+                    node_sets: Mapping[str, Any] | None = None, **options: Any) -> "Model":
+        """A model whose points are arrays: ``x`` (n, 3) reference positions (L), ``volume``
+        (n,) or one number, cell volumes (L^3), ``block_id`` (n,) or one int (block ``k`` is
+        named ``block_k`` in the deck's Blocks). ``deck``: a dict deck without a
+        Discretization section (or one with only Influence Function / Bond Filters / Omit Bonds
+        Between Blocks). ``node_sets``: name -> 0-based indices or (n,) bool mask, usable as
+        ``Node Set`` in the deck. ``options``: as for ``Model``."""
+        deck_obj = points_deck(x, volume, deck, block_id=block_id, node_sets=node_sets, directory=options.pop("directory", None))
+        return cls(deck_obj, **options)
+
+    # -- what the model is ----------------------------------------------------------------------
+    @property
+    def num_points(self) -> int:
+        """Number of points n (every array of the API has n rows)."""
+        return int(self.sim.num_global)
+
+    @property
+    def x(self) -> np.ndarray:
+        """(n, 3) reference positions (L), mesh order (a copy)."""
+        return self.sim.discretization.x.copy()
+
+    @property
+    def ids(self) -> np.ndarray:
+        """(n,) 1-based global ids of the points, mesh order (``Element_Id`` of the output)."""
+        return self.sim.discretization.gid + 1
+
+    @property
+    def time(self) -> float:
+        """Current time (T): the time of the last step taken (the first section's initial time
+        before any)."""
+        if not self._started:
+            plan = self._solvers()
+            return float(plan[0][0].params.initial_time) if plan else 0.0
+        return float(self.sim.time)
+
+    @property
+    def dt(self) -> float:
+        """Time step of the section running now (T); 0 before the first step."""
+        return float(self.sim.time_step)
+
+    @property
+    def finished(self) -> bool:
+        """True when every solver section has run (or the run was stopped)."""
+        return self._ended
+
+    def node_set(self, name: str) -> np.ndarray:
+        """0-based mesh indices of a node set of the deck or the mesh (sorted)."""
+        sets = self.sim.node_sets
+        key = tidy(name)
+        if key not in sets:
+            raise KeyError(f"no node set {name!r}; node sets: {', '.join(sorted(sets)) or 'none'}")
+        return np.unique(sets[key])
+
+    # -- fields --------------------------------------------------------------------------------
+    @property
+    def field_names(self) -> list[str]:
+        """Names of the point fields this run holds (only what its deck uses)."""
+        store = self.sim.fields
+        return sorted(n for n, spec in store.specs.items() if spec.is_point and store.allocated(n))
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.get(name)
+
+    def __setitem__(self, name: str, values: Any) -> None:
+        self.set(name, values)
+
+    def get(self, name: str) -> np.ndarray:
+        """A point field in mesh order, as a new array: (n,) for scalars, (n, k) otherwise;
+        ``Damage``, ``Displacement``, ``Velocity``, ``Force_Density`` (F L^-6 per unit
+        volume), ... with the deck's units. A two-step field gives its value at the last step."""
+        array = self._field(name)
+        out = np.zeros((self.num_points,) + array.shape[1:], dtype=array.dtype)
+        out[self._owned] = array[: self.sim.num_owned]
+        return out
+
+    def set(self, name: str, values: Any) -> None:
+        """Write a point field, ``values`` in mesh order ((n,) or (n, k), or anything that
+        broadcasts to it). Writing ``Displacement`` also moves ``Coordinates`` (= reference +
+        displacement) and the reverse. Write before the first step to set an initial state; a
+        write between steps changes the state the next step starts from (the energy check of an
+        explicit run counts it as unexplained energy)."""
+        array = self._field(name)
+        n = self.num_points
+        new = np.broadcast_to(np.asarray(values, dtype=array.dtype), (n,) + array.shape[1:])
+        if not np.all(np.isfinite(new)):
+            raise ValueError(f"{name}: values must be finite")
+        targets = [array]
+        spec = self.sim.fields.specs[name]
+        if spec.temporal is Temporal.TWO_STEP:
+            targets = [self.sim.fields[name], self.sim.fields.n(name)]
+        local = new[self._owned]
+        for target in targets:
+            target[: self.sim.num_owned] = local
+        f = self.sim.fields
+        if name == "Displacement":
+            f["Coordinates"][: self.sim.num_owned] = f["Model_Coordinates"][: self.sim.num_owned] + local
+        elif name == "Coordinates":
+            f["Displacement"][: self.sim.num_owned] = local - f["Model_Coordinates"][: self.sim.num_owned]
+        self.sim.exchange_halo_fields()
+
+    def _field(self, name: str) -> np.ndarray:
+        store = self.sim.fields
+        spec = store.specs.get(name)
+        if spec is None or not spec.is_point or name not in store:
+            raise KeyError(f"no point field {name!r} in this run; fields: {', '.join(self.field_names)}")
+        if spec.temporal is Temporal.TWO_STEP and self.steps_taken:
+            return store.n(name)  # after a completed step N holds the newest values (N and NP1 swap)
+        return store[name]
+
+    # -- conditions and computes from Python --------------------------------------------------
+    def add_condition(self, type: str, nodes: NodesLike, value: Callable[[float, np.ndarray], Any], *, coordinate: str = "x",
+                      name: str | None = None) -> None:
+        """A boundary condition whose value is a Python callable ``value(t, x) -> (k,)`` (or a
+        number), evaluated exactly where the deck's expression would be: ``t`` the time (T),
+        ``x`` the (k, 3) reference positions of the node set's points. ``type``: a deck
+        boundary-condition Type (``"Prescribed Displacement"`` (L), ``"Body Force"``
+        (F L^-3), ``"Initial Velocity"`` (L T^-1), ``"Initial Displacement"``,
+        ``"Prescribed Temperature"``, ...); ``coordinate``: x, y or z. ``nodes``: see
+        ``NodesLike``. Add conditions before the first step; initial conditions act at once."""
+        if self._started:
+            raise RunEnded("add conditions before the first step: the run has started")
+        from ..engine.conditions import BCParams
+
+        sim = self.sim
+        key = tidy(type)
+        registry = self.deck.registry
+        cls = registry.get("boundary_condition", key, path=("add_condition",))
+        label = name or f"python {type} {len(sim.conditions) + 1}"
+        params = BCParams.model_validate({"Type": type, "Node Set": label, "Coordinate": coordinate, "Value": 0.0})
+        problems = [p for p in cls.check(params) if not p.startswith("Value")]
+        if problems:
+            raise InputError("; ".join(problems), path=("add_condition",), fix="see the condition's Coordinate")
+        cond = cls(params, entry_name=label)
+        cond.params = params.model_copy(update={"value": f"<python {getattr(value, '__name__', 'callable')}>"})
+        cond.expr = _PythonValue(value if callable(value) else (lambda t, x, c=float(value): np.full(len(x), c)))
+        members = self._local_points(nodes)
+        if members.size == 0:
+            raise InputError(f"{label}: the node set holds no point", path=("add_condition",), fix="give at least one point")
+        cond.bind(members, sim.discretization.x[sim.mothership_of_local], sim.gid)
+        if cond.target == "temperature":
+            sim.fields.declare(FieldSpec("Temperature", Relation.NODE))
+            if cond.stage == "kinematic":
+                sim.fields.declare(FieldSpec("Temperature_Change", Relation.NODE, halo=True))
+        if cond.target == "body_force":
+            sim.fields.declare(FieldSpec("External_Force_Density", Relation.NODE, Length.VECTOR))
+        sim.conditions.append(cond)
+        if cond.stage == "initial":
+            cond.apply_initial(sim)
+            sim.exchange_halo_fields()
+        elif cond.stage == "kinematic":
+            sim.kinematic.append(cond)
+            if cond.target == "displacement":
+                sim.prescribed_dofs[cond.points, cond.component] = True
+                sim.prescribed_points = np.unique(np.concatenate([sim.prescribed_points, cond.points]))
+        elif cond.stage == "force":
+            sim.force_conditions.append(cond)
+
+    def _local_points(self, nodes: NodesLike) -> np.ndarray:
+        """Owned local indices of ``nodes`` (sorted, unique)."""
+        sim = self.sim
+        n = self.num_points
+        if isinstance(nodes, str):
+            mesh = self.node_set(nodes)
+        else:
+            raw = nodes(self.sim.discretization.x) if callable(nodes) else nodes
+            arr = np.asarray(raw)
+            if arr.dtype == bool:
+                if arr.shape != (n,):
+                    raise InputError(f"a node mask has shape {arr.shape}, expected ({n},)", path=("nodes",), fix="one bool per point, mesh order")
+                mesh = np.nonzero(arr)[0]
+            else:
+                mesh = arr.astype(np.int64).reshape(-1)
+                if mesh.size and (mesh.min() < 0 or mesh.max() >= n):
+                    raise InputError(f"a node index is outside 0..{n - 1}", path=("nodes",), fix="give 0-based mesh indices")
+        local = sim.local_of_mothership[mesh]
+        return np.unique(local[(local >= 0) & (local < sim.num_owned)])
+
+    def add_compute(self, name: str, fn: Callable[["Model"], Any], *, every: int = 1) -> None:
+        """A quantity computed by ``fn(model)`` after the initial state (step 0) and after every
+        ``every``-th step (and after a whole non-explicit section), kept in ``history(name)``.
+        ``fn`` may return a number or an array (e.g. a field in mesh order); it is copied."""
+        if every < 1:
+            raise ValueError("every must be a positive number of steps")
+        self._computes[name] = (fn, int(every))
+        self._history.setdefault(name, ([], []))
+
+    def history(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        """(times (m,), values (m, ...)) recorded by the compute ``name``."""
+        if name not in self._history:
+            raise KeyError(f"no compute {name!r}; computes: {', '.join(self._history) or 'none'}")
+        times, values = self._history[name]
+        return np.asarray(times, dtype=float), np.asarray(values)
+
+    def _record(self, step: int, force: bool = False) -> None:
+        for name, (fn, every) in self._computes.items():
+            if force or step % every == 0:
+                value = fn(self)
+                self._history[name][0].append(float(self.sim.time))
+                self._history[name][1].append(np.array(value, copy=True) if isinstance(value, np.ndarray) else value)
+
+    # -- running -------------------------------------------------------------------------------
+    def _solvers(self) -> list:
+        if self._plan is None:
+            self._plan = self.sim.plan_solvers()
+        return self._plan
+
+    def _advance(self, whole_until: float | None) -> bool:
+        """One time step, or a whole section that cannot be stepped when it ends at or before
+        ``whole_until`` (T; None: never); False when every section has run."""
+        if self._ended:
+            return False
+        plan = self._solvers()
+        while True:
+            if self._generator is None:
+                if self._section >= len(plan):
+                    self._finish()
+                    return False
+                solver = plan[self._section][0]
+                if self.sim.device == "cpu" and hasattr(solver, "steps"):
+                    self._started = True
+                    self._generator = solver.steps(self.sim)
+                    self._guard(lambda: next(self._generator))  # step 0: forces and output at the initial time
+                    self._record(0)
+                    continue
+                final = float(solver.params.final_time)
+                if whole_until is None or final > whole_until * (1.0 + 1e-12):
+                    raise RunEnded(f"{solver.section}: {type(solver).__name__} on the {self.sim.device.upper()} runs as one piece, "
+                                   f"to t = {final:.6g}; use run() or run(until=t) with t at or after its end (stepping needs "
+                                   "an explicit Verlet section on the CPU)")
+                self._started = True
+                self._guard(lambda: solver.run(self.sim))
+                self._section += 1
+                self.steps_taken += 1
+                self._record(0, force=True)
+                return True
+            try:
+                step = self._guard(lambda: next(self._generator))
+            except StopIteration:
+                self._generator = None
+                self._section += 1
+                continue
+            self.steps_taken += 1
+            self._record(step)
+            if step == plan[self._section][1]:  # the section's last step: let it finish (statistics, energy verdict)
+                generator = self._generator
+                self._guard(lambda: [None for _ in generator])
+                self._generator = None
+                self._section += 1
+                if self._section >= len(plan):
+                    self._finish()
+            return True
+
+    def _guard(self, action: Callable[[], Any]) -> Any:
+        """Run ``action``; on an error close the outputs as ``peridyn run`` does (an unstable run
+        keeps its frames under the final name) and end the run."""
+        try:
+            return action()
+        except StopIteration:
+            raise
+        except InstabilityError:
+            self._finish()
+            raise
+        except BaseException:
+            self._finish(complete=False)
+            raise
+
+    def _finish(self, complete: bool = True) -> None:
+        from ..engine.output import release_locks
+
+        if self._ended:
+            return
+        self._ended = True
+        self._generator = None
+        try:
+            self.sim.outputs.close(complete=complete)
+        finally:
+            release_locks(self._locks)
+            self._locks = []
+
+    def step(self, n: int = 1) -> "Model":
+        """Take ``n`` time steps of the explicit section running now (its first call also does
+        the section's step 0: forces and output at the initial time). Returns the model."""
+        for _ in range(int(n)):
+            if not self._advance(None):
+                raise RunEnded(f"the run has ended after {self.steps_taken} steps, at t = {self.time:.6g}")
+        return self
+
+    def run(self, until: float | None = None) -> "Model":
+        """Run every remaining solver section to its end (``until`` None; the output files are
+        then complete), or step until the first step whose time is at or after ``until`` (T,
+        within 1e-9 of a step); a section that cannot be stepped (not Verlet on the CPU) runs
+        whole when it ends at or before ``until``, else RunEnded. Returns the model."""
+        if until is None:
+            while self._advance(math.inf):
+                pass
+            return self
+        if not math.isfinite(until):
+            raise ValueError("until must be a finite time")
+        while not self._ended:
+            if self._started and self.sim.time >= until - 1e-9 * max(self.sim.time_step, 0.0):
+                break
+            if not self._advance(until):
+                break
+        return self
+
+    def close(self) -> None:
+        """Close the output files (the frames written so far, under their final names) and
+        release the output folder. Also done at the end of the last section."""
+        self._finish(complete=True)
+
+    def __enter__(self) -> "Model":
+        return self
+
+    def __exit__(self, kind, exc, tb) -> None:
+        self._finish(complete=kind is None or issubclass(kind, InstabilityError))
+
+    # -- results -------------------------------------------------------------------------------
+    @property
+    def output_files(self) -> list[Path]:
+        """The output files of the deck (final names), in deck order."""
+        return [w.path for w in self.sim.outputs.writers]
+
+    def results(self, which: int | str = 0):
+        """The results of an output file read back (``peridyn.read``): its index in the deck's
+        outputs or its section name; after the run (or ``close()``)."""
+        from .results import read
+
+        writers = self.sim.outputs.writers
+        chosen = [w for w in writers if w.entry.section == which] if isinstance(which, str) else [writers[which]]
+        if not chosen:
+            raise KeyError(f"no output section {which!r}")
+        return read(chosen[0].path)
+
+    def summary(self) -> dict[str, Any]:
+        """What ``peridyn run`` logs: per solver section its steps, time step and energy."""
+        return {"solvers": [dict(s) for s in self.sim.stats.get("solvers", [])], "points": self.num_points,
+                "bonds": int(self.sim.num_bonds_global)}
+
+
+def _prepare_output_dir(folder: Path) -> None:
+    """Create the output folder (with its parents) when missing; InputError when it cannot be."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:
+        raise InputError(f"the output folder {str(folder)!r} is a file", fix="give a folder for the output files") from None
+    except OSError as exc:
+        raise InputError(f"cannot create the output folder {str(folder)!r}: {exc.strerror or exc}", fix="give a folder you can write to") from None
