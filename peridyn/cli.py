@@ -10,26 +10,24 @@ import time
 from pathlib import Path
 
 from .core.errors import ExitCode, InputError, InstabilityError, OutputWriteError, PeridynError
+from .core.logs import say, setup_logging
 
 log = logging.getLogger("peridyn")
+#: set from --log-json before the command runs
+_LOG_JSON = {"on": False}
 
 
 def _setup_logging(verbosity: int, rank: int = 0) -> None:
-    level = logging.WARNING if verbosity < 0 else logging.INFO if verbosity == 0 else logging.DEBUG
-    if rank != 0:
-        level = logging.ERROR
-    root = logging.getLogger("peridyn")
-    root.handlers.clear()
-    handler = logging.StreamHandler(sys.stderr)
-    handler.setFormatter(logging.Formatter("%(message)s" if verbosity <= 0 else "%(levelname)s %(name)s: %(message)s"))
-    root.addHandler(handler)
-    root.setLevel(level)
-    root.propagate = False
+    from .solvers.progress import structured_progress
+
+    as_json = bool(_LOG_JSON["on"])
+    setup_logging(verbosity, rank, as_json=as_json)
+    structured_progress(as_json)
 
 
 def _report_input_error(exc: InputError) -> None:
     for line in exc.one_line().splitlines():
-        print(f"error: {line}", file=sys.stderr)
+        say("error", line)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -90,7 +88,7 @@ def _agree_on_input(comm, action):
     if messages:
         if comm.rank == 0:
             for line in messages[0].splitlines():
-                print(f"error: {line}", file=sys.stderr)
+                say("error", line)
         raise _ReportedInputError()
     return result
 
@@ -135,8 +133,8 @@ def _run_parallel_locked(args, comm, output_dir: Path, wall0: float, locks: list
             return ExitCode.UNSTABLE
         sim.outputs.close(complete=True)  # every rank raises it at the same step
         if comm.rank == 0:
-            print(f"error: {exc}", file=sys.stderr)
-            print("the output written so far is kept and readable", file=sys.stderr)
+            say("error", str(exc))
+            say("", "the output written so far is kept and readable")
         return ExitCode.UNSTABLE
     except BaseException as exc:
         sim.outputs.close(complete=False)
@@ -155,7 +153,8 @@ def _abort(comm, exc: BaseException, args) -> None:
         traceback.print_exc()
     code = exc.exit_code if isinstance(exc, PeridynError) else ExitCode.INTERRUPTED if isinstance(exc, KeyboardInterrupt) else ExitCode.FAILURE
     text = exc.one_line() if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
-    print(f"error on rank {comm.rank} of {comm.size}: {text}; stopping all ranks", file=sys.stderr, flush=True)
+    say(f"error on rank {comm.rank} of {comm.size}", f"{text}; stopping all ranks", rank=comm.rank)
+    sys.stderr.flush()
     if comm.size > 1:
         # MPI_Abort has the launcher kill every rank, racing the forwarding of this rank's
         # stderr: without a moment for it the line was lost (once in three runs of tests/mpi)
@@ -421,6 +420,7 @@ def build_parser() -> argparse.ArgumentParser:
         sp.add_argument("-v", "--verbose", action="count", default=0, help="more output")
         sp.add_argument("-q", "--quiet", action="count", default=0, help="less output")
         sp.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help="show tracebacks")
+        sp.add_argument("--log-json", action="store_true", help="log one JSON object per line on stderr (progress records included) for batch systems")
         sp.add_argument("--no-limits", action="store_true", help="run models estimated too large for memory or too long to finish (a warning instead of an error)")
 
     r = sub.add_parser("run", help="run a deck (YAML or Peridigm XML)")
@@ -541,6 +541,7 @@ def _main(argv: list[str] | None) -> int:
     debug = args.debug
     if not hasattr(args, "verbose"):
         args.verbose, args.quiet = 0, 0
+    _LOG_JSON["on"] = bool(getattr(args, "log_json", False))
     if getattr(args, "no_limits", False):
         from .engine.limits import ENV
 
@@ -555,16 +556,16 @@ def _main(argv: list[str] | None) -> int:
     except InstabilityError as exc:
         if debug:
             raise
-        print(f"error: {exc}", file=sys.stderr)
-        print("the output written so far is kept and readable", file=sys.stderr)
+        say("error", str(exc))
+        say("", "the output written so far is kept and readable")
         return int(ExitCode.UNSTABLE)
     except OutputWriteError as exc:
         if debug:
             raise
-        print(f"error: {exc}", file=sys.stderr)
+        say("error", str(exc))
         return int(exc.exit_code)
     except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
+        say("", "interrupted")
         return int(ExitCode.INTERRUPTED)
     except BrokenPipeError:  # `peridyn check deck | head`: the reader has gone; nothing to report
         import os
@@ -574,18 +575,17 @@ def _main(argv: list[str] | None) -> int:
     except MemoryError as exc:
         if debug:
             raise
-        print(f"error: {getattr(args, 'deck', '')}: the model does not fit in memory ({exc}); use fewer points or a smaller "
-              "horizon", file=sys.stderr)
+        say("error", f"{getattr(args, 'deck', '')}: the model does not fit in memory ({exc}); use fewer points or a smaller horizon")
         return int(ExitCode.INPUT_ERROR)
     except PeridynError as exc:
         if debug:
             raise
-        print(f"error: {exc}", file=sys.stderr)
+        say("error", str(exc))
         return int(exc.exit_code)
     except Exception as exc:  # a bug: say so, show the traceback only with --debug
         if debug:
             raise
-        print(f"internal error: {type(exc).__name__}: {exc} (run with --debug for the traceback; please report it)", file=sys.stderr)
+        say("internal error", f"{type(exc).__name__}: {exc} (run with --debug for the traceback; please report it)")
         return int(ExitCode.FAILURE)
 
 

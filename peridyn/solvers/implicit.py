@@ -39,6 +39,7 @@ from ..core.params import ModelParams
 from .common import SolverSection, count_steps
 from .linalg.linear import METHODS, LinearSolver
 from .newton import ImplicitProblem, threads_for, solver_stats
+from .progress import Progress
 
 log = logging.getLogger("peridyn.solver")
 
@@ -142,6 +143,7 @@ class Implicit(Solver):
             return prob.norm2(rr), rr
 
         warned = 0
+        progress = Progress(nsteps, self.section, enabled=sim.progress)
         for step in range(nsteps):
             un = u[:n].copy()
             vn = v[:n].copy()
@@ -157,6 +159,7 @@ class Implicit(Solver):
             while res > ip.absolute_tolerance and it <= ip.maximum_solver_iterations:
                 sim.nonlinear_iterations += 1
                 log.debug("%s: step %d, iteration %d: residual %.6g", self.section, step + 1, it, res)
+                progress.note(iteration=it, residual=res, tolerance=ip.absolute_tolerance)
                 prob.assemble_tangent(p.probe_length)
                 T.scale(jscale)
                 T.add_to_diagonal(rho_rows)
@@ -179,6 +182,11 @@ class Implicit(Solver):
             sim.time_prev, sim.time = t_prev, t_cur
             sim.write_output(t_cur)
             sim.advance()
+            log.debug("%s: step %d of %d (t = %.6g): residual %.4g (tolerance %.4g) after %d iteration(s)", self.section, step + 1, nsteps,
+                      t_cur, res, ip.absolute_tolerance, it, extra={"fields": {"event": "step", "section": self.section, "step": step + 1,
+                                                                              "steps": nsteps, "time": t_cur, "residual": res, "iterations": it}})
+            progress.update(step + 1, residual=res, tolerance=ip.absolute_tolerance)
+        progress.close()
         solver_stats(
             sim, self.section, "Implicit", nsteps, _time.perf_counter() - wall0, prob,
             dt=dt, linear_solver=lin._chosen or lin.method, linear_solve_time=lin.solve_time, linear_setup_time=lin.setup_time,

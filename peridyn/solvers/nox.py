@@ -55,6 +55,7 @@ from ..core.errors import ExitCode, PeridynError
 from ..core.interfaces import Solver
 from .linalg.aztecoo import aztecoo_gmres
 from .linalg.linear import gdot, gnorm
+from .progress import Progress
 from .newton import (
     ImplicitProblem,
     load_times,
@@ -135,6 +136,8 @@ class NOXRun:
         self.linear_iterations = 0
         self.trust_region_counters = [0, 0, 0, 0, 0]  # Newton, Cauchy, dogleg steps, inner iterations, recovery steps
         self.comm = self.problem.comm  # None serially
+        self.progress = Progress(1, enabled=False)  # the run's bar, made when it starts
+        self.last_status = (0, math.nan, math.nan)  # NOX step, ||F||, tolerance of the last status test
 
     # -- reductions over ranks (numpy's serially) -----------------------------------------------
     def _dot(self, a: np.ndarray, b: np.ndarray) -> float:
@@ -493,6 +496,8 @@ class NOXRun:
     def status(self, F: np.ndarray, tol: float, niter: int) -> str:
         """NOX status tests, OR-combined: finite value, ||F||_2 < tol, iterations >= max."""
         nF = self.problem.norm2(F)
+        self.last_status = (niter, nF, tol)
+        self.progress.note(iteration=niter, residual=nF, tolerance=tol)
         if not math.isfinite(nF):
             return "failed"
         if nF < tol:
@@ -523,6 +528,7 @@ class NOXRun:
         saved = sim.delta_u
         sim.delta_u = du
         steps = 0
+        self.progress = Progress(len(times) - 1, self.section, enabled=sim.progress, unit="load step")
         try:
             for k in range(1, len(times)):
                 t_prev, t_cur = t_cur, times[k]
@@ -552,7 +558,14 @@ class NOXRun:
                 sim.write_output(t_cur)
                 sim.advance()
                 steps += 1
+                niter, nF, tol = self.last_status
+                log.info("%s: load step %d of %d (t = %.6g): ||F|| %.4g (tolerance %.4g) after %d NOX step(s)",
+                         self.section, k, len(times) - 1, t_cur, nF, tol, niter,
+                         extra={"fields": {"event": "load_step", "section": self.section, "step": k, "steps": len(times) - 1,
+                                           "time": t_cur, "residual": nF, "tolerance": tol, "iterations": niter}})
+                self.progress.update(k, residual=nF, tolerance=tol)
         finally:
+            self.progress.close()
             sim.delta_u = saved
             extra = {}
             if q.nonlinear_solver == "Inexact Trust Region Based":

@@ -48,6 +48,7 @@ from ..core.params import ModelParams
 from .common import SolverSection
 from .linalg.linear import METHODS, LinearSolver
 from .model_reduction import ModelReductionParams
+from .progress import Progress
 from .newton import (
     ImplicitProblem,
     check_time_steps,
@@ -243,6 +244,7 @@ class QuasiStaticRun:
         self.tangent_reuses = 0
         self.residuals: list[list[float]] = []  # per load step attempt: residual norm before each iteration and at the end
         self.attempts: list[dict] = []  # per load step attempt: step, time, dt, iterations, residual, tolerance, outcome
+        self.progress = Progress(1, enabled=False)  # the run's bar, made when it starts
         self.step = 0  # the load step being solved
         self.failure: str | None = None  # why the last Newton loop stopped early (a failed linear solve)
 
@@ -343,6 +345,7 @@ class QuasiStaticRun:
         while res > tol and it <= q.maximum_solver_iterations:
             sim.nonlinear_iterations += 1
             log.debug("%s: load step %d, iteration %d: residual %.6g (tolerance %.6g)", self.section, step, it, res, tol)
+            self.progress.note(iteration=it, residual=res, tolerance=tol)
             if it == 1 and (step > 1 or use_predictor_first) and self.heuristics:
                 lhs = predictor * self.dt
                 lhs[prob.fixed_local] = 0.0
@@ -401,6 +404,7 @@ class QuasiStaticRun:
         nnz = sim.comm.allreduce_sum(int(self.problem.tangent.nnz))  # stored by all ranks (ghost rows included)
         log.info("%s: QuasiStatic, %d load steps from t = %.6g to %.6g, %d unknowns, tangent %d nonzeros",
                  self.section, len(times) - 1, times[0], times[-1], 3 * sim.num_global, nnz)
+        self.progress = Progress(len(times) - 1, self.section, enabled=sim.progress, unit="load step")
 
         adaptive = q.adaptive
         t_final = times[-1]
@@ -454,11 +458,13 @@ class QuasiStaticRun:
                     break
                 if adaptive is not None and retry:
                     halve_load_step(times, step, t_prev, self.dt)
+                    self.progress.retotal(len(times) - 1)
                     if adaptive.adaptive_output_frequency:
                         multiply_output_frequency(sim.outputs.writers, 2.0)
                     continue  # same index, now the shorter step
                 if adaptive is not None and adaptive.reduce_all_remaining and convergence_failed_in_step:
                     reduce_remaining_load_steps(times, step, t_cur, self.dt, t_final)
+                    self.progress.retotal(len(times) - 1)
                 if it >= q.maximum_solver_iterations and q.maximum_solver_iterations > 0:
                     log.info("%s: load step %d used the maximum number of nonlinear iterations", self.section, step)
                 convergence_failed_in_step = False
@@ -468,9 +474,15 @@ class QuasiStaticRun:
                 sim.write_output(t_cur)
                 sim.advance()
                 completed += 1
+                log.info("%s: load step %d of %d (t = %.6g) %s: residual %.4g (tolerance %.4g) after %d iteration(s)",
+                         self.section, step, len(times) - 1, t_cur, outcome, res, tol, it - 1,
+                         extra={"fields": {"event": "load_step", "section": self.section, "step": step, "steps": len(times) - 1,
+                                           "time": t_cur, "outcome": outcome, "residual": res, "tolerance": tol, "iterations": it - 1}})
+                self.progress.update(step, residual=res, tolerance=tol)
                 step += 1
         finally:
             sim.delta_u = saved_delta_u
+            self.progress.close()
         lin = self.linear
         solver_stats(
             sim, self.section, "QuasiStatic", completed, _time.perf_counter() - wall0, self.problem,
