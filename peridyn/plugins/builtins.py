@@ -52,6 +52,7 @@ def peridyn_discretizations():
         ("Exodus", "peridyn.io.exodus_mesh:ExodusMesh"),
         ("Text File", "peridyn.io.textfile:TextFile"),
         ("Shapes", "peridyn.io.shapes:Shapes"),
+        ("Mesh", "peridyn.io.meshio_mesh:Mesh"),
     ]
 
 
