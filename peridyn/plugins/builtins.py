@@ -95,6 +95,7 @@ def peridyn_damage_models():
         ("Johnson Cook", "peridyn.damage.johnson_cook:JohnsonCook"),
         ("Von Mises Stress", "peridyn.damage.von_mises_stress:VonMisesStress"),
         ("Critical Energy", "peridyn.damage.critical_energy:CriticalEnergy"),
+        ("Fatigue", "peridyn.damage.fatigue:Fatigue"),
     ]
 
 
