@@ -55,7 +55,7 @@ def header(name: str) -> str:
 
 def test_every_example_has_a_test():
     decks = sorted(p.stem for p in EXAMPLES.glob("*.yaml"))
-    assert decks == ["disk_impact", "fatigue_notched_plate", "fragmenting_cylinder", "guyan_tensile", "meshed_plate_hole", "neo_hookean_stretch", "penalty_contact", "quickstart", "rnp_crack", "wave_in_bar"]
+    assert decks == ["disk_impact", "double_well_crack", "fatigue_notched_plate", "fragmenting_cylinder", "guyan_tensile", "meshed_plate_hole", "neo_hookean_stretch", "penalty_contact", "quickstart", "rnp_crack", "wave_in_bar"]
 
 
 def test_quickstart_plate_cracks_in_the_middle(tmp_path):
