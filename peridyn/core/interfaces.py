@@ -272,6 +272,10 @@ class Material(ABC):
     #: which degrees of freedom the tangent of a point's bonds couples: "family" (every pair of
     #: {i} U N_i, e.g. state-based models) or "pairs" (bonded pairs only, bond-based models)
     tangent_coupling: ClassVar[TangentCoupling] = "family"
+    #: ``tangent`` computes the tangent from closed-form derivatives (True) rather than by finite
+    #: differences of the force (False, the default: the solvers' or the material's own
+    #: compiled probes); the wall-time estimate of implicit solvers reads it (peridyn.engine.limits)
+    analytic_tangent: ClassVar[bool] = False
 
     def tangent(self, block: BlockView, target: Any) -> bool:
         """Add the tangent d(f V)/dy (force per length) of the block's points' bonds to the
@@ -597,6 +601,9 @@ class Solver(ABC):
 
     name: ClassVar[str]
     Params: ClassVar[type[ModelParams]]
+    #: solves with a tangent (Newton iterations): its wall-time estimate counts the tangent's
+    #: entries, not only force evaluations (peridyn.engine.limits)
+    implicit: ClassVar[bool] = False
 
     def __init__(self, params: ModelParams, *, section: str = "Solver") -> None:
         self.params = params

@@ -486,15 +486,23 @@ class Simulation:
             steps = solver.planned_steps(self)
             seconds = None
             if steps is not None:
-                seconds = self.check_steps(steps, entry.path, entry.section)
+                seconds = self.check_steps(steps, entry.path, entry.section, implicit=solver.implicit)
             plan.append((solver, steps, seconds))
         return plan
 
-    def check_steps(self, steps: float, path: tuple[str, ...], section: str) -> float:
+    def check_steps(self, steps: float, path: tuple[str, ...], section: str, implicit: bool = False) -> float:
         """Refuse (InputError) a step count over the limits of :mod:`peridyn.engine.limits`, for
         a solver planned at set-up or one that starts during the run (a fallback); returns the
-        estimated wall time (s)."""
-        return limits.check_steps(steps, float(self.num_global), float(self.num_bonds_global), file=self.deck.file, path=path, section=section)
+        estimated wall time (s). ``implicit``: the solver solves with a tangent."""
+        entries, differences = 0.0, False
+        if implicit:
+            materials = [blk.material for blk in self.blocks]
+            coupling = "family" if any(m.tangent_coupling == "family" for m in materials) else "pairs"
+            nl = self.bonds
+            entries = limits.estimate_tangent_entries(nl.offsets, nl.neighbors, self.num_owned, coupling, self.comm if self.comm.size > 1 else None)
+            differences = not all(m.analytic_tangent for m in materials)
+        return limits.check_steps(steps, float(self.num_global), float(self.num_bonds_global), file=self.deck.file, path=path, section=section,
+                                  tangent_entries=entries, finite_differences=differences)
 
     def run_solvers(self) -> None:
         """Run the deck's solver sections in deck order (what ``peridyn run`` does between set-up

@@ -305,6 +305,7 @@ class Elastic(Material):
     """Linear peridynamic solid (Peridigm's ``Elastic``)."""
 
     name = "Elastic"
+    analytic_tangent = True
     Params = ElasticParams
     precompute_fields = ("Dilatation",)
     row_local = True

@@ -109,6 +109,7 @@ class ElasticBondBased(Material):
     """Prototype microelastic brittle (bond-based) material."""
 
     name = "Elastic Bond Based"
+    analytic_tangent = True
     Params = ElasticBondBasedParams
     row_local = True
     bond_energy = "pair"

@@ -81,6 +81,7 @@ class ElasticPlastic(DeviatoricStateMaterial):
     """Peridigm's ``Elastic Plastic`` (ordinary state-based perfect plasticity)."""
 
     name = "Elastic Plastic"
+    analytic_tangent = True
     Params = ElasticPlasticParams
     hardening = False
 

@@ -75,6 +75,7 @@ class ImplicitSection(SolverSection):
 class Implicit(Solver):
     name = "Implicit"
     Params = ImplicitSection
+    implicit = True
 
     @classmethod
     def tangent_request(cls, params) -> str:

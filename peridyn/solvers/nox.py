@@ -90,6 +90,7 @@ class NOXConvergenceError(PeridynError):
 class NOXQuasiStatic(Solver):
     name = "NOXQuasiStatic"
     Params = NOXQuasiStaticSection
+    implicit = True
 
     def planned_steps(self, sim) -> int | None:
         return planned_load_steps(self.params, self.params.nox)

@@ -158,6 +158,7 @@ class QuasiStaticSection(SolverSection):
 class QuasiStatic(Solver):
     name = "QuasiStatic"
     Params = QuasiStaticSection
+    implicit = True
 
     @classmethod
     def tangent_request(cls, params) -> str:

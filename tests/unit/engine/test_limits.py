@@ -116,3 +116,43 @@ def test_a_horizon_of_many_model_sizes_makes_every_point_a_neighbor(tmp_path, ca
     deck = write(tmp_path, horizon="100.0")
     assert main(["check", str(deck)]) == ExitCode.OK
     assert "64 points, 4032 bonds" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("material, coupling", [
+    ({"Material Model": "Elastic", "Density": 1000.0, "Bulk Modulus": 1.0e9, "Shear Modulus": 1.0e9}, "family"),
+    ({"Material Model": "Elastic Bond Based", "Density": 1000.0, "Bulk Modulus": 1.0e9}, "pairs"),
+])
+def test_the_tangent_entries_are_counted_from_the_neighbor_lists(material, coupling):
+    """The estimate of the implicit tangent's size against the tangent the solvers allocate: within
+    2 % on a lattice (every point of the sample counted exactly; the rest scaled)."""
+    from peridyn.solvers.linalg.tangent import TangentMatrix
+    from peridyn.testing import build_simulation, cube_deck
+
+    sim = build_simulation(cube_deck(material, n=9, spacing=1.0, horizon_factor=2.015))
+    assert sim.blocks[0].material.tangent_coupling == coupling
+    nl = sim.bonds
+    estimate = limits.estimate_tangent_entries(nl.offsets, nl.neighbors, sim.num_owned, coupling)
+    actual = TangentMatrix(sim, "full").nnz
+    assert estimate == pytest.approx(actual, rel=0.02)
+    other = limits.estimate_tangent_entries(nl.offsets, nl.neighbors, sim.num_owned, "pairs" if coupling == "family" else "family")
+    assert abs(other / actual - 1.0) > 0.5  # the coupling matters
+
+
+def test_an_implicit_estimate_counts_newton_iterations_of_the_tangent():
+    explicit = limits.estimate_seconds(10, 1.0e4, 1.0e6)
+    implicit = limits.estimate_seconds(10, 1.0e4, 1.0e6, tangent_entries=5.0e7)
+    fd = limits.estimate_seconds(10, 1.0e4, 1.0e6, tangent_entries=5.0e7, finite_differences=True)
+    assert explicit == pytest.approx(10 * 1.01e6 / limits.BOND_RATE)
+    per_iteration = limits.ITERATION_OVERHEAD_SECONDS + 5.0e7 * limits.TANGENT_ENTRY_SECONDS["analytic"] + 3.0 * 1.01e6 / limits.BOND_RATE
+    assert implicit == pytest.approx(limits.SECTION_OVERHEAD_SECONDS + 10 * limits.ITERATIONS_PER_STEP * per_iteration)
+    assert fd > 3.0 * implicit > 30.0 * explicit
+
+
+def test_check_estimates_a_quasistatic_run_from_its_tangent(tmp_path, capsys):
+    text = write(tmp_path, n=8, horizon=0.4).read_text().replace("  Verlet:\n    Fixed dt: 1e-07", "  QuasiStatic:\n    Number of Load Steps: 20")
+    deck = tmp_path / "qs.yaml"
+    deck.write_text(text)
+    assert main(["check", str(deck)]) == ExitCode.OK
+    out = capsys.readouterr().out
+    seconds = float(out.split("20 steps, estimated ")[1].split()[0])
+    assert seconds > 20 * limits.ITERATIONS_PER_STEP * limits.ITERATION_OVERHEAD_SECONDS
