@@ -72,6 +72,18 @@ class PenaltyContactParams(ModelParams):
         return self
 
 
+@njit(cache=True, inline="always")
+def pair_coefficient(visit, p, j, block, horizon, coef):
+    """kappa of a pair (M L^-6 T^-2 per unit penetration and partner volume): for each point whose
+    visit the pair has, its half of the law, coef_b / delta_b^5 with coef_b = 4.5 c_b / pi."""
+    kappa = 0.0
+    if visit & VISIT_FROM_POINT:
+        kappa += coef[block[p]] / horizon[p] ** 5
+    if visit & VISIT_FROM_PARTNER:
+        kappa += coef[block[j]] / horizon[j] ** 5
+    return kappa
+
+
 # not a loop law: the rows are contact pairs (ContactPairs: deformed-configuration partners with visit flags, ghosts), not bonds
 @njit(cache=True, parallel=True, error_model="numpy")
 def penalty_force_kernel(num_owned, offsets, partners, visits, block, horizon, y, v, volume, rc, coef, mu, out):
@@ -92,11 +104,7 @@ def penalty_force_kernel(num_owned, offsets, partners, visits, block, horizon, y
             s2 = dx * dx + dy * dy + dz * dz
             if not s2 < rc2:
                 continue
-            kappa = 0.0
-            if visits[q] & VISIT_FROM_POINT:
-                kappa += coef[block[p]] / horizon[p] ** 5
-            if visits[q] & VISIT_FROM_PARTNER:
-                kappa += coef[block[j]] / horizon[j] ** 5
+            kappa = pair_coefficient(visits[q], p, j, block, horizon, coef)
             d = math.sqrt(s2)
             g = kappa * (rc - d) * volume[j]  # |normal force density| on p
             ux = dx / d
@@ -138,11 +146,7 @@ def penalty_energy_kernel(num_owned, offsets, partners, visits, block, horizon, 
             d = math.sqrt(dx * dx + dy * dy + dz * dz)
             if not d < rc:
                 continue
-            kappa = 0.0
-            if visits[q] & VISIT_FROM_POINT:
-                kappa += coef[block[p]] / horizon[p] ** 5
-            if visits[q] & VISIT_FROM_PARTNER:
-                kappa += coef[block[j]] / horizon[j] ** 5
+            kappa = pair_coefficient(visits[q], p, j, block, horizon, coef)
             g = rc - d
             total += 0.25 * kappa * g * g * volume[p] * volume[j]
     return total
