@@ -23,6 +23,7 @@ from pydantic import Field, field_validator
 from ..core.errors import InputError, raise_collected
 from ..core.params import ModelParams
 from ..plugins.manager import Registry, get_registry
+from .regions import RegionSpec
 from .source import SECTION_NAMES
 from .validation import ignored_value_problem, validate_params
 
@@ -139,7 +140,7 @@ class BlockEntry:
 @dataclass
 class NodeSetEntry:
     name: str  #: tidied
-    value: str
+    value: str | RegionSpec  #: point numbers or a file name; or a region (docs/regions.md)
     path: tuple[str, ...]
 
 
@@ -307,12 +308,22 @@ def parse_deck(source, registry: Registry | None = None) -> Deck:
 
     # -- boundary conditions ----------------------------------------------------------------------
     node_sets: dict[str, NodeSetEntry] = {}
+    invalid_node_sets: set[str] = set()  # reported already: conditions using them are not "unknown"
     bcs: list[BCEntry] = []
     for name, raw in section("Boundary Conditions").items():
         path = ("Boundary Conditions", name)
         if "NODE_SET" in tidy(name):
+            if isinstance(raw, Mapping):  # a region (docs/regions.md)
+                region = validate_params(RegionSpec, raw, path=path, file=file, errors=errors, lines=lines)
+                if region is not None:
+                    node_sets[tidy(name)] = NodeSetEntry(tidy(name), region, path)
+                else:
+                    invalid_node_sets.add(tidy(name))
+                continue
             if isinstance(raw, bool) or not isinstance(raw, (str, int)):
-                err(f"a node set must be a string of point numbers or a file name (got {raw!r})", path)
+                invalid_node_sets.add(tidy(name))
+                err(f"a node set must be a string of point numbers, a file name or a region (got {raw!r})", path,
+                    "e.g. \"1 2 3\", \"left.txt\" or {Box: {Min: [x, y, z], Max: [x, y, z]}} (docs/regions.md)")
                 continue
             node_sets[tidy(name)] = NodeSetEntry(tidy(name), str(raw), path)
             continue
@@ -338,7 +349,7 @@ def parse_deck(source, registry: Registry | None = None) -> Deck:
             bcs.append(BCEntry(name, key, cls, params, path))
     for bc in bcs:
         ns = getattr(bc.params, "node_set", None)
-        if ns is not None and "NODE_SET" in tidy(ns) and tidy(ns) not in node_sets:
+        if ns is not None and "NODE_SET" in tidy(ns) and tidy(ns) not in node_sets and tidy(ns) not in invalid_node_sets:
             # mesh node sets (nodelist_1) are checked once the mesh is read
             err(f"unknown node set {ns!r}", bc.path + ("Node Set",), _choices(ns, node_sets))
 

@@ -34,6 +34,7 @@ from .model import (
     DataLoaderParams,
     OutputParams,
 )
+from .regions import RegionSpec
 
 #: a number written as text, as Python's float() and the loader read it
 NUMBER_TEXT = r"^\s*[-+]?(\d[\d_]*(\.[\d_]*)?|\.\d[\d_]*)([eE][-+]?\d+)?\s*$"
@@ -161,11 +162,15 @@ class _Builder:
 
     def boundary_conditions(self) -> dict[str, Any]:
         node_set = "".join(f"[{c.upper()}{c.lower()}]" if c.isalpha() else "[ _]" for c in "node set")
+        regions = RegionSpec.model_json_schema(by_alias=True, ref_template="#/$defs/{model}")
+        for name, d in regions.pop("$defs", {}).items():
+            self.defs.setdefault(name, _lenient(d))
+        self.defs["RegionSpec"].update(minProperties=1, maxProperties=1)  # exactly one region key
         return {
             "type": "object",
             "description": "boundary conditions by name; an entry whose name contains 'Node Set' defines a node set "
-                           "(a string of 1-based point numbers or a file name)",
-            "patternProperties": {node_set: {"type": ["string", "integer"]}},
+                           "(a string of 1-based point numbers, a file name, or a region: docs/regions.md)",
+            "patternProperties": {node_set: {"anyOf": [{"type": ["string", "integer"]}, {"$ref": "#/$defs/RegionSpec"}]}},
             "additionalProperties": self.selected("boundary_condition", "Type", tidy=True),
         }
 

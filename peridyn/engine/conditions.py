@@ -13,7 +13,7 @@ Expressions are evaluated at the points' *reference* coordinates.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any, Callable, ClassVar
 
 import numpy as np
 from pydantic import Field, field_validator
@@ -136,6 +136,12 @@ class BoundaryCondition:
 
     def apply_force(self, sim: "Simulation", t: float) -> None:  # pragma: no cover
         raise NotImplementedError
+
+    def prepare(self, sim: "Simulation", members: np.ndarray, region: Any, surface: Callable[[], Any]) -> None:
+        """Called once after :meth:`bind` with the node set's points on *all* ranks (mothership
+        indices), its region (a ``RegionSpec``, None for a list of ids or a mesh node set) and a
+        function returning the discretization's free surface (``geometry.surface.Surface``,
+        computed once). Conditions that need the whole node set (a total force) override it."""
 
 
 class InitialVelocity(BoundaryCondition):
@@ -295,7 +301,28 @@ def create_conditions(sim: Any) -> BoundConditions:
     sorted_gid = disc.gid[gid_order]
     node_sets: dict[str, np.ndarray] = {}
     errors: list[InputError] = []
+    cache: dict[str, Any] = {}
+    failed: set[str] = set()  # node sets whose error is reported already
+
+    def surface():
+        if "surface" not in cache:
+            from ..geometry.surface import free_surface
+
+            cache["surface"] = free_surface(disc.x, disc.volume)
+        return cache["surface"]
+
     for name, entry in deck.node_sets.items():
+        if not isinstance(entry.value, str):  # a region: evaluated on every point's reference coordinates
+            from ..geometry.regions import region_mask
+
+            try:
+                mask = region_mask(entry.value, disc.x, disc.volume, surface=surface, path=entry.path, file=deck.file)
+            except InputError as exc:
+                errors.append(exc)
+                failed.add(name)
+                continue
+            node_sets[name] = np.flatnonzero(mask).astype(np.int64)
+            continue
         try:
             ids = parse_node_set_value(entry.value, deck_dir=deck.directory, path=entry.path, deck_file=deck.file)
         except InputError as exc:
@@ -327,6 +354,8 @@ def create_conditions(sim: Any) -> BoundConditions:
     conditions = []
     for bc in deck.boundary_conditions:
         ns = tidy(bc.params.node_set)
+        if ns in failed:
+            continue
         if ns not in node_sets:
             errors.append(
                 InputError(
@@ -345,6 +374,12 @@ def create_conditions(sim: Any) -> BoundConditions:
         members = sim.local_of_mothership[node_sets[ns]]
         members = members[(members >= 0) & (members < sim.num_owned)]  # this rank's points
         obj.bind(np.unique(members) if obj.stage != "initial" else members, sim.discretization.x[sim.mothership_of_local], sim.gid)
+        entry = deck.node_sets.get(ns)
+        try:
+            obj.prepare(sim, node_sets[ns], None if entry is None or isinstance(entry.value, str) else entry.value, surface)
+        except InputError as exc:
+            errors.append(exc)
+            continue
         conditions.append(obj)
     raise_collected(errors)
     for obj in conditions:

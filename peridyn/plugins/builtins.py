@@ -131,6 +131,7 @@ def peridyn_boundary_conditions():
         ("BODY_FORCE", f"{module}:BodyForce"),
         ("PRESCRIBED_FLUID_PRESSURE_U", f"{module}:PrescribedFluidPressureU"),
         ("INITIAL_FLUID_PRESSURE_U", f"{module}:InitialFluidPressureU"),
+        ("SURFACE_TRACTION", "peridyn.engine.traction:SurfaceTraction"),
     ]
 
 

@@ -80,7 +80,8 @@ def _solver(d: dict) -> dict:
 
 MUTATIONS = {
     "unknown section": lambda d: d.__setitem__("Materialz", {}),
-    "unsupported section": lambda d: d.__setitem__("Restart", {"Restart Frequency": 10}),
+    "restart negative frequency": lambda d: d.__setitem__("Restart", {"Restart Frequency": -10}),
+    "restart unknown key": lambda d: d.__setitem__("Restart", {"Restart Frequncy": 10}),
     "no Materials": lambda d: d.pop("Materials"),
     "unknown material key": lambda d: _material(d).__setitem__("Densty", 1.0),
     "unknown material model": lambda d: _material(d).__setitem__("Material Model", "Elastc"),
