@@ -30,14 +30,10 @@ def damage_summary(model: "peridyn.Model") -> dict:
 
 def study(folder: Path, stretches: list[float], small: bool = False, processes: int = 1) -> list[dict]:
     deck = peridyn.deck_tree(HERE / "quickstart.yaml")
-    if small:  # 30 x 15 x 2 points of 2 mm; the node-set files are for the full grid
+    if small:  # 30 x 15 x 2 points of 2 mm; the grips (half spaces of the deck) are again two columns each
         grid = deck["Discretization"]["TensorProduct3DMeshGenerator"]
         grid.update({"Number Points X": 30, "Number Points Y": 15, "Number Points Z": 2, "Z Length": 0.004})
         deck["Blocks"]["Plate"]["Horizon"] = 0.00603
-        # PdQuickGrid numbers x fastest, then y, then z: the two end columns at each side
-        bcs = deck["Boundary Conditions"]
-        bcs["Left Node Set"] = " ".join(str(1 + i + 30 * j + 450 * k) for k in range(2) for j in range(15) for i in (0, 1))
-        bcs["Right Node Set"] = " ".join(str(1 + i + 30 * j + 450 * k) for k in range(2) for j in range(15) for i in (28, 29))
     runs = peridyn.Study(deck, [{STRETCH: s} for s in stretches], folder, extract=damage_summary, directory=HERE)
     rows = runs.run(processes=processes)
     for row in rows:
