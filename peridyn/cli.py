@@ -51,7 +51,9 @@ def cmd_run(args) -> int:
     try:
         sim = Simulation(deck, comm=comm, output_dir=output_dir, progress=not args.no_progress, backend=args.backend, device=args.device)
         _log_setup(sim)
+        restart = None
         try:
+            restart = _attach_restart(sim, args)
             sim.run_solvers()
         except InstabilityError:
             sim.outputs.close(complete=True)
@@ -59,11 +61,26 @@ def cmd_run(args) -> int:
         except BaseException:
             sim.outputs.close(complete=False)
             raise
+        finally:
+            if restart is not None:
+                restart.remove_signals()
         sim.outputs.close(complete=True)
     finally:
         release_locks(locks)
     _log_summary(sim, time.perf_counter() - wall0)
     return ExitCode.OK
+
+
+def _attach_restart(sim, args):
+    """Checkpoints of a deck with a Restart section, and the checkpoint of ``--restart`` put into
+    the model (docs/restart.md); SIGTERM/SIGINT then stop the run at a checkpoint."""
+    if getattr(sim.deck, "restart", None) is None and getattr(args, "restart", None) is None:
+        return None
+    from .engine.restart import attach
+
+    restart = attach(sim, args.restart)
+    restart.install_signals()
+    return restart
 
 
 def _prepare_output_dir(folder: Path) -> None:
@@ -124,8 +141,24 @@ def _run_parallel_locked(args, comm, output_dir: Path, wall0: float, locks: list
         _abort(comm, exc, args)
         return ExitCode.FAILURE
     _log_setup(sim)
+    from .engine.restart import RunInterrupted
+
+    restart = None
+    try:
+        restart = _agree_on_input(comm, lambda: _attach_restart(sim, args))
+    except _ReportedInputError:
+        sim.outputs.close(complete=False)
+        return ExitCode.INPUT_ERROR
     try:
         sim.run_solvers()
+    except RunInterrupted as exc:
+        sim.outputs.close(complete=False)
+        if not exc.collective:  # a signal outside an explicit loop: the other ranks may wait in a collective
+            _abort(comm, exc, args)
+            return exc.exit_code
+        if comm.rank == 0:  # every rank stops after the same step, after the checkpoint
+            print(f"{exc}", file=sys.stderr)
+        return exc.exit_code
     except InstabilityError as exc:
         if not exc.collective:  # found on this rank alone: the others must be stopped
             sim.outputs.close(complete=False)
@@ -140,6 +173,9 @@ def _run_parallel_locked(args, comm, output_dir: Path, wall0: float, locks: list
         sim.outputs.close(complete=False)
         _abort(comm, exc, args)
         return ExitCode.FAILURE
+    finally:
+        if restart is not None:
+            restart.remove_signals()
     sim.outputs.close(complete=True)
     _log_summary(sim, time.perf_counter() - wall0)
     return ExitCode.OK
@@ -300,6 +336,10 @@ def cmd_check(args) -> int:
         print(f"  solver {entry.section}: {entry.method}{planned}")
     for w in sim.outputs.writers:
         print(f"  output {w.entry.section}: {w.path.name}, every {w.frequency} step(s), {len(w.names)} variable(s)")
+    if getattr(deck, "restart", None) is not None:
+        r = deck.restart
+        every = f"every {r.restart_frequency} Verlet step(s), " if r.restart_frequency else ""
+        print(f"  restart: checkpoints in {r.folder}/ {every}after each solver section and on SIGTERM/SIGINT, the latest {r.keep} kept")
     mem = sim.memory_bytes()
     print(f"  memory estimate: {mem / 2**20:.1f} MiB for fields and neighbor lists")
     return ExitCode.OK
@@ -429,6 +469,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
     r.add_argument("--backend", help="where arrays live and bond loops run: numba (CPU threads, the default), numba-serial, cuda (the GPU), or a plugin's (default: PERIDYN_BACKEND)")
     r.add_argument("--device", choices=("cpu", "gpu"), type=str.lower, help="run explicit solvers on one NVIDIA GPU (needs peridyn[gpu]) or the CPU; wins over the solver's Device (default: cpu)")
+    r.add_argument("--restart", nargs="?", const="latest", metavar="CHECKPOINT",
+                   help="continue from a checkpoint of this deck (alone: the latest in the Restart section's folder); docs/restart.md")
     common(r)
     r.set_defaults(func=cmd_run)
 

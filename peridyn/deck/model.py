@@ -42,9 +42,7 @@ IGNORED_TOP_LEVEL = {
 #: top-level key: the seed of ``rnd()`` in expressions (peridyn's; Peridigm has none)
 RANDOM_SEED_KEY = "Random Seed"
 #: Peridigm sections that peridyn does not implement yet
-UNSUPPORTED_SECTIONS = {
-    "Restart": "restart is not supported yet",
-}
+UNSUPPORTED_SECTIONS: dict[str, str] = {}
 
 
 def tidy(name: str) -> str:
@@ -206,6 +204,7 @@ class Deck:
     registry: Registry = field(repr=False, default=None)
     multiphysics: bool = False  #: top-level ``Multiphysics: 1``: fluid pressure as a 4th dof (PERIDIGM_MODELS.md §7)
     random_seed: int = 0  #: top-level ``Random Seed``: what ``rnd()`` in expressions hashes with each point's global id
+    restart: Any = None  #: the ``Restart`` section (:class:`peridyn.deck.restart.RestartParams`), or None
 
     def line(self, path) -> int | None:
         return self.source.line_of(path) if self.source is not None else None
@@ -422,6 +421,13 @@ def parse_deck(source, registry: Registry | None = None) -> Deck:
     if "Contact" in tree:
         contact = _parse_contact(section("Contact"), registry, file, errors, lines)
 
+    restart = None
+    if "Restart" in tree:  # Peridigm: the section's presence turns restart on (docs/restart.md)
+        from .restart import RestartParams
+
+        raw = tree["Restart"]
+        restart = validate_params(RestartParams, raw if isinstance(raw, Mapping) else {}, path=("Restart",), file=file, errors=errors, lines=lines)
+
     multiphysics = _parse_multiphysics(tree, materials, err)
     raise_collected(errors)
     assert disc is not None
@@ -443,6 +449,7 @@ def parse_deck(source, registry: Registry | None = None) -> Deck:
         registry=registry,
         multiphysics=multiphysics,
         random_seed=random_seed,
+        restart=restart,
     )
 
 

@@ -35,6 +35,7 @@ from .model import (
     OutputParams,
 )
 from .regions import RegionSpec
+from .restart import RestartParams
 
 #: a number written as text, as Python's float() and the loader read it
 NUMBER_TEXT = r"^\s*[-+]?(\d[\d_]*(\.[\d_]*)?|\.\d[\d_]*)([eE][-+]?\d+)?\s*$"
@@ -187,6 +188,7 @@ def deck_json_schema() -> dict[str, Any]:
         "Compute Class Parameters": {"type": "object", "additionalProperties": b.selected("compute", "Compute Class", spaces=True)},
         "Data Loader": b.params(DataLoaderParams),
         "Contact": b.contact(),
+        "Restart": b.params(RestartParams),
         "Multiphysics": {"description": "Peridigm's number of extra degrees of freedom: 1 (fluid pressure)",
                          "anyOf": [{"const": 1}, {"type": "string", "pattern": INTEGER_TEXT}]},
         RANDOM_SEED_KEY: {

@@ -436,6 +436,8 @@ class OutputWriter:
         self.path = sim.output_dir / f"{entry.filename}{suffix}"
         self._writer = None
         self.frames = 0
+        #: a restarted run: the frames of ``partial_path`` kept, the next ones appended (peridyn.engine.restart)
+        self.resume_frames: int | None = None
         # Exodus variable lists, in Output Variables order per kind
         self.nodal = [(v, c, k) for v in self.vars if v.kind == "nodal" for k, c in enumerate(component_names(v.spec, v.name))]
         self.element = [(v, c, k) for v in self.vars if v.kind == "element" for k, c in enumerate(component_names(v.spec, v.name))]
@@ -551,7 +553,7 @@ class OutputWriter:
             self._writer = _NullWriter()
             return
         if self.global_only:
-            self._writer = ExodusWriter.global_only(self.partial_path, [c for _, c, _ in self.glob])
+            self._writer = ExodusWriter.global_only(self.partial_path, [c for _, c, _ in self.glob], append_after=self.resume_frames)
             return
         truth = np.array([[has for has in self.manager.blocks_with(v.name)] for v, _, _ in self.element], dtype=bool).T.reshape(len(blocks), len(self.element))
         node_sets = [(name, members) for name, members in sorted(sim.node_sets.items())]
@@ -565,6 +567,7 @@ class OutputWriter:
             element_vars=[c for _, c, _ in self.element],
             global_vars=[c for _, c, _ in self.glob],
             truth_table=truth,
+            append_after=self.resume_frames,
         )
 
     @property

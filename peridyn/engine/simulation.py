@@ -81,6 +81,8 @@ class Simulation:
         self.contact = None
         self.interfaces = None
         self.element_nodes: np.ndarray | None = None
+        #: checkpoints and restarts (:class:`peridyn.engine.restart.Checkpoints`; None: neither)
+        self.restart = None
         self.timers: dict[str, float] = {}
         self.stats: dict[str, Any] = {}
         t0 = _time.perf_counter()
@@ -507,8 +509,13 @@ class Simulation:
     def run_solvers(self) -> None:
         """Run the deck's solver sections in deck order (what ``peridyn run`` does between set-up
         and the summary; the caller closes ``outputs``)."""
-        for solver, _, _ in self.plan_solvers():
+        restart = self.restart
+        for k, (solver, _, _) in enumerate(self.plan_solvers()):
+            if restart is not None and not restart.begin_section(k, solver):
+                continue  # done before the checkpoint this run continues from
             solver.run(self)
+            if restart is not None:
+                restart.end_section(k, solver)
 
     def evaluate_forces(self) -> np.ndarray:
         """Peridigm's evalModel: damage, precompute, force. Returns Force_Density (n, 3)."""

@@ -39,7 +39,7 @@ from types import TracebackType
 import netCDF4
 import numpy as np
 
-__all__ = ["ExodusBlock", "ExodusWriter", "MAX_NAME_LENGTH", "EXODUS_API_VERSION"]
+__all__ = ["ExodusBlock", "ExodusWriter", "MAX_NAME_LENGTH", "EXODUS_API_VERSION", "keep_steps"]
 
 #: Longest name (variables, blocks, node sets, coordinates) an Exodus file of this layout holds.
 MAX_NAME_LENGTH = 32
@@ -154,6 +154,7 @@ class ExodusWriter:
         truth_table: np.ndarray | None = None,
         title: str = "Peridigm",
         program: str = "peridyn",
+        append_after: int | None = None,
     ) -> None:
         self.path = Path(path)
         coords = np.asarray(coords, dtype=np.float64)
@@ -204,12 +205,16 @@ class ExodusWriter:
         self.truth_table = tab
         self._num_steps = 0
         self._ds: netCDF4.Dataset | None = None
-        self._define(coords, node_num_map, title, program)
+        if append_after is None:
+            self._define(coords, node_num_map, title, program)
+        else:
+            self._reopen(int(append_after))
 
     # ------------------------------------------------------------------ construction
     @classmethod
     def global_only(
-        cls, path: str | Path, global_vars: Sequence[str], title: str = "Peridigm", program: str = "peridyn"
+        cls, path: str | Path, global_vars: Sequence[str], title: str = "Peridigm", program: str = "peridyn",
+        append_after: int | None = None,
     ) -> "ExodusWriter":
         """Peridigm's ``.h`` layout (``initializeExodusDatabaseWithOnlyGlobalData``): one dummy node
         at the origin, one SPHERE block with ID 1 (no name) holding one element, node and element
@@ -222,6 +227,7 @@ class ExodusWriter:
             global_vars=global_vars,
             title=title,
             program=program,
+            append_after=append_after,
         )
 
     def _define(self, coords: np.ndarray, node_num_map: np.ndarray, title: str, program: str) -> None:
@@ -347,6 +353,41 @@ class ExodusWriter:
             self._ds = None
             raise
 
+    def _reopen(self, steps: int) -> None:
+        """Open the existing file to append after its first ``steps`` steps (a restarted run,
+        docs/restart.md): its steps beyond them are dropped by :func:`keep_steps` before.
+        ValueError when the file does not hold the variables this writer would write."""
+        ds = netCDF4.Dataset(str(self.path), "a")
+        try:
+            ds.set_auto_maskandscale(False)
+            ds.set_fill_off()
+            have = len(ds.dimensions["time_step"])
+            if have != steps:
+                raise ValueError(f"{self.path.name} holds {have} steps, not the {steps} to append after")
+
+            def names(var: str) -> list[str]:
+                if var not in ds.variables:
+                    return []
+                return [bytes(row).rstrip(b"\0").decode("ascii", "replace") for row in ds[var][:]]
+
+            for kind, var, declared in (("nodal", "name_nod_var", self.nodal_vars), ("element", "name_elem_var", self.element_vars),
+                                        ("global", "name_glo_var", self.global_vars)):
+                found = names(var)
+                if found != list(declared):
+                    raise ValueError(f"{self.path.name} holds the {kind} variables {found}, not {list(declared)}")
+            if int(ds.dimensions["num_nodes"].size) != self.num_nodes:
+                raise ValueError(f"{self.path.name} has {ds.dimensions['num_nodes'].size} nodes, not {self.num_nodes}")
+            self._time = ds["time_whole"]
+            self._glo = ds["vals_glo_var"] if self.global_vars else None
+            self._nod = [ds[f"vals_nod_var{i}"] for i in range(1, len(self.nodal_vars) + 1)]
+            self._elem = [[ds[f"vals_elem_var{i + 1}eb{b + 1}"] if self.truth_table[b, i] else None for b in range(len(self.blocks))]
+                          for i in range(len(self.element_vars))]
+        except BaseException:
+            ds.close()
+            raise
+        self._ds = ds
+        self._num_steps = steps
+
     # ------------------------------------------------------------------ writing
     @property
     def num_steps(self) -> int:
@@ -453,3 +494,30 @@ class ExodusWriter:
             self.close()
         except Exception:
             pass
+
+
+def keep_steps(path: str | Path, steps: int) -> int:
+    """Drop the steps of an Exodus file beyond its first ``steps`` (a restarted run appends after
+    them): the record count in the classic netCDF header (bytes 4-7, big endian, of a CDF-1 or
+    CDF-2 file) is set to ``steps`` and the file is flushed to disk; the data of the dropped
+    steps stays in the file until overwritten, unseen by any reader. Returns the number of steps
+    the file held. ValueError for a file that is not classic netCDF or holds fewer steps."""
+    import os
+
+    path = Path(path)
+    with open(path, "r+b") as fh:
+        head = fh.read(8)
+        if len(head) < 8 or head[:3] != b"CDF" or head[3] not in (1, 2):
+            raise ValueError(f"{path.name} is not a classic netCDF (Exodus) file")
+        held = int.from_bytes(head[4:8], "big")
+        if held == 0xFFFFFFFF:  # "streaming": the count was never written
+            with netCDF4.Dataset(str(path)) as ds:
+                held = len(ds.dimensions["time_step"])
+        if held < steps:
+            raise ValueError(f"{path.name} holds {held} steps, fewer than the {steps} the checkpoint wrote")
+        if held != steps:
+            fh.seek(4)
+            fh.write(int(steps).to_bytes(4, "big"))
+            fh.flush()
+            os.fsync(fh.fileno())
+    return held

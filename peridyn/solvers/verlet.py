@@ -161,30 +161,39 @@ class Verlet(Solver):
 
         contact = sim.contact
 
-        # step 0
-        sim.time_prev = sim.time = t = t0
-        sim.load_data(t)
-        sim.evaluate_forces()
-        if contact is not None:
-            contact.add_force(f["Force_Density"], t, 0)
-        sim.apply_kinematic(t, t)
-        sim.apply_body_forces(t)
-        acceleration_kick_kernel(n, f["Force_Density"], f["External_Force_Density"] if has_b else no_b, rho, dt2, a, v, False)
-        sim.load_data(t)
-        sim.write_output(t)
-        limit = self._measure(sim, dt, dt_crit, nsteps)
-        if math.isfinite(limit):
-            log.info("%s: stable limit measured on the model: at most %.4g (%.3g x the estimate)", self.section, limit, limit / dt_crit)
+        restart = sim.restart
+        # a run continued from a checkpoint: (the last step done, the energy monitor) there
+        resumed = restart.resume(self, dt) if restart is not None else None
+        if resumed is None:
+            # step 0
+            sim.time_prev = sim.time = t = t0
+            sim.load_data(t)
+            sim.evaluate_forces()
+            if contact is not None:
+                contact.add_force(f["Force_Density"], t, 0)
+            sim.apply_kinematic(t, t)
+            sim.apply_body_forces(t)
+            acceleration_kick_kernel(n, f["Force_Density"], f["External_Force_Density"] if has_b else no_b, rho, dt2, a, v, False)
+            sim.load_data(t)
+            sim.write_output(t)
+            limit = self._measure(sim, dt, dt_crit, nsteps)
+            if math.isfinite(limit):
+                log.info("%s: stable limit measured on the model: at most %.4g (%.3g x the estimate)", self.section, limit, limit / dt_crit)
 
-        monitor = EnergyMonitor(sim, dt, dt_crit, beyond_limit=dt >= limit)
+            monitor = EnergyMonitor(sim, dt, dt_crit, beyond_limit=dt >= limit)
+            first = 1
+        else:
+            last, monitor = resumed
+            t = t0 + float(last) * dt
+            first = last + 1
         f_old = np.empty_like(f["Force_Density"])
         b_old = np.empty_like(f["External_Force_Density"]) if has_b else None
         du = np.empty_like(u)
-        yield 0
+        yield first - 1
         progress = Progress(nsteps, f"{self.section}", enabled=sim.progress)
         wall0 = _time.perf_counter()
         force_time = 0.0
-        for step in range(1, nsteps + 1):
+        for step in range(first, nsteps + 1):
             t_prev = t
             t = t0 + float(step) * dt
             sim.time_prev, sim.time = t_prev, t
@@ -211,23 +220,26 @@ class Verlet(Solver):
             sim.write_output(t)
             sim.advance()
             progress.update(step)
+            if restart is not None:
+                restart.after_step(step, monitor)  # a checkpoint when due or signalled
             yield step
         monitor.flush()
         progress.close()
         wall = _time.perf_counter() - wall0
+        done = nsteps - first + 1  # the steps this process ran (fewer after a restart)
         log.debug("%s: energy monitor: largest C/S %.4g, largest (K - C)/S %.4g, start energy known %s", self.section,
                   monitor.resolution, monitor.max_excess, monitor.start_known)
         sim.stats.setdefault("solvers", []).append(
             {
                 "section": self.section,
                 "method": "Verlet",
-                "steps": nsteps,
+                "steps": done,
                 "dt": dt,
                 "dt_estimate": dt_crit,
                 "wall": wall,
                 "force_time": force_time,
-                "bond_evaluations": nsteps * sim.num_bonds_global,
-                "point_steps": nsteps * sim.num_global,
+                "bond_evaluations": done * sim.num_bonds_global,
+                "point_steps": done * sim.num_global,
                 "contact": contact.summary() if contact is not None else None,
                 "energy": monitor.account(),
             }
