@@ -9,6 +9,7 @@ from typing import Any
 from ..core.params import IGNORED_KEY_TYPES, describe_params, reading_field, type_text
 from ..plugins.manager import KINDS, get_registry
 from .model import IGNORED_TOP_LEVEL, RANDOM_SEED_KEY, BlockParams, ContactSectionParams, DataLoaderParams, OutputParams
+from .restart import RestartParams
 from .schema import BOND_FILTER_KEYS, DISCRETIZATION_KEYS
 
 #: deck sections of each kind of plugin, in the order of the page
@@ -71,7 +72,7 @@ def reference_markdown() -> str:
         "| key | meaning |",
         "|---|---|",
         "| `Discretization`, `Materials`, `Blocks` | required sections (below) |",
-        "| `Damage Models`, `Boundary Conditions`, `Compute Class Parameters`, `Contact`, `Data Loader` | optional sections (below) |",
+        "| `Damage Models`, `Boundary Conditions`, `Compute Class Parameters`, `Contact`, `Data Loader`, `Restart` | optional sections (below) |",
         "| any key containing `Solver` | a solver section (several run in turn) |",
         "| any key containing `Output` | an output file |",
         "| `Multiphysics` | 1: fluid pressure as a fourth degree of freedom (multiphysics materials) |",
@@ -81,6 +82,7 @@ def reference_markdown() -> str:
     out += ["", "## Blocks", "", "Each entry of `Blocks` is one block:", ""] + _table(describe_params(BlockParams))
     out += ["## Output", "", "Each section whose name contains `Output`:", ""] + _table(describe_params(OutputParams))
     out += ["## Data Loader", ""] + _table(describe_params(DataLoaderParams))
+    out += ["## Restart", "", "Checkpoints and restarts ([restart.md](restart.md)):", ""] + _table(describe_params(RestartParams))
     out += ["## Contact", "", "The `Contact` section; its `Models` are listed below.", ""] + _table(describe_params(ContactSectionParams))
     for kind, section, key in SECTIONS:
         human = KINDS[kind][1]
