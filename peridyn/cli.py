@@ -79,7 +79,7 @@ def _attach_restart(sim, args):
         return None
     from .engine.restart import attach
 
-    restart = attach(sim, args.restart)
+    restart = sim.restart = attach(sim, args.restart)
     restart.install_signals()
     return restart
 

@@ -246,8 +246,7 @@ class Model:
         elif cond.stage == "kinematic":
             sim.kinematic.append(cond)
             if cond.target == "displacement":
-                sim.prescribed_dofs[cond.points, cond.component] = True
-                sim.prescribed_points = np.unique(np.concatenate([sim.prescribed_points, cond.points]))
+                sim.prescribe(cond.points, cond.component)
         elif cond.stage == "force":
             sim.force_conditions.append(cond)
 

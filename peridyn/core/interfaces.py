@@ -374,6 +374,8 @@ class Simulation(Protocol):
     local_of_mothership: np.ndarray  #: (num_global,) int64 local index, -1 where not on this rank
     node_sets: dict[str, np.ndarray]  #: node set name -> mothership indices
     prescribed_dofs: np.ndarray  #: (num_local, 3) bool, components a kinematic condition sets
+    prescribed_points: np.ndarray  #: (k,) int64 sorted local points with a prescribed displacement component
+    restart: Any | None  #: checkpoints and restarts (peridyn.engine.restart.Checkpoints), None without a Restart section or --restart
     delta_u: np.ndarray | None  #: (num_local, 3) displacement increment of the implicit solvers
     output_dir: Any  #: folder of the output files (pathlib.Path)
     num_bonds_global: int  #: bonds of the whole model (each direction counted)
@@ -462,6 +464,14 @@ class Simulation(Protocol):
 
     def require(self, spec: FieldSpec) -> np.ndarray:
         """The field of ``spec``, allocated on first request (late declarations of computes)."""
+
+    def exchange_halo_fields(self) -> None:
+        """Refresh the ghost copies of the positions and of every halo field (after fields were
+        set outside a step: an initial condition, a restart); a no-op serially."""
+
+    def prescribe(self, points: np.ndarray, component: int) -> None:
+        """Mark displacement ``component`` (0, 1, 2) of the local ``points`` as prescribed by a
+        kinematic condition (``prescribed_dofs``, ``prescribed_points``)."""
 
 
 # ------------------------------------------------------------------------------------------------

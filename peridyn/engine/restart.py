@@ -420,7 +420,8 @@ class Checkpoints:
         if "acceleration" in data:
             sim.acceleration = np.zeros((sim.num_local, 3))
             point("acceleration", sim.acceleration)
-        sim.time, sim.time_prev, sim.time_step = meta["time"], meta["time_prev"], meta["time_step"]
+        sim.time, sim.time_prev = meta["time"], meta["time_prev"]
+        sim.set_time_step(meta["time_step"])
         sim.nonlinear_iterations = meta["nonlinear_iterations"]
         if not same:
             sim.exchange_halo_fields()
@@ -480,7 +481,7 @@ class Checkpoints:
 
 # ------------------------------------------------------------------------------------------------
 def attach(sim, restart_arg: str | None) -> Checkpoints | None:
-    """Set ``sim.restart`` for a deck with a Restart section or a run given ``--restart``
+    """The checkpoints (the caller sets ``sim.restart``) of a deck with a Restart section or a run given ``--restart``
     (``restart_arg``: a checkpoint path, or "latest"); load the checkpoint. Collective only
     through the contact pair rebuild."""
     params = getattr(sim.deck, "restart", None)
@@ -504,7 +505,6 @@ def attach(sim, restart_arg: str | None) -> Checkpoints | None:
         else:
             path = Path(restart_arg)
         cp.load(path)
-    sim.restart = cp
     return cp
 
 

@@ -466,6 +466,12 @@ class Simulation:
             if blk.fused_view is not None:
                 blk.fused_view.time_step = self.time_step
 
+    def prescribe(self, points: np.ndarray, component: int) -> None:
+        """Mark displacement ``component`` of the local ``points`` as prescribed (a condition
+        added after set-up, e.g. from the Python API)."""
+        self.prescribed_dofs[points, component] = True
+        self.prescribed_points = np.unique(np.concatenate([self.prescribed_points, np.asarray(points, dtype=np.int64)]))
+
     def exchange_halo_fields(self) -> None:
         """Refresh the ghost copies of the current positions and of every field marked halo."""
         if self.comm.size == 1:
