@@ -85,13 +85,9 @@ def _attach_restart(sim, args):
 
 
 def _prepare_output_dir(folder: Path) -> None:
-    """Create the --output-dir folder if needed (with its parents); InputError if impossible."""
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-    except FileExistsError:
-        raise InputError(f"--output-dir {str(folder)!r} is a file, not a folder", fix="give a folder for the output files") from None
-    except OSError as exc:
-        raise InputError(f"cannot create the output folder {str(folder)!r}: {exc.strerror or exc}", fix="give a folder you can write to") from None
+    from .engine.output import prepare_output_dir
+
+    prepare_output_dir(folder, "--output-dir")
 
 
 def _agree_on_input(comm, action):

@@ -18,7 +18,7 @@ from typing import Any, Union
 import numpy as np
 
 from ..core.errors import InputError, InstabilityError, PeridynError
-from ..core.fields import FieldSpec, Length, Relation, Temporal
+from ..core.fields import Temporal
 from ..deck.model import tidy
 from .decks import DeckLike, build_deck, points_deck
 
@@ -61,14 +61,14 @@ class Model:
 
     def __init__(self, deck: DeckLike, *, output_dir: str | os.PathLike | None = None, directory: str | os.PathLike | None = None,
                  write_files: bool = True, progress: bool = False, backend: str | None = None, device: str | None = None) -> None:
-        from ..engine.output import check_output_names, lock_outputs, release_locks
+        from ..engine.output import check_output_names, lock_outputs, prepare_output_dir, release_locks
         from ..engine.simulation import Simulation
 
         self.deck = build_deck(deck, directory)
         self.output_dir = Path(output_dir) if output_dir is not None else Path.cwd()
         self._locks: list = []
         if write_files:
-            _prepare_output_dir(self.output_dir)
+            prepare_output_dir(self.output_dir)
             check_output_names(self.deck, self.output_dir)
             self._locks = lock_outputs(self.deck, self.output_dir)
         try:
@@ -215,7 +215,7 @@ class Model:
         ``NodesLike``. Add conditions before the first step; initial conditions act at once."""
         if self._started:
             raise RunEnded("add conditions before the first step: the run has started")
-        from ..engine.conditions import BCParams
+        from ..engine.conditions import BCParams, declare_condition_fields
 
         sim = self.sim
         key = tidy(type)
@@ -233,12 +233,7 @@ class Model:
         if members.size == 0:
             raise InputError(f"{label}: the node set holds no point", path=("add_condition",), fix="give at least one point")
         cond.bind(members, sim.discretization.x[sim.mothership_of_local], sim.gid)
-        if cond.target == "temperature":
-            sim.fields.declare(FieldSpec("Temperature", Relation.NODE))
-            if cond.stage == "kinematic":
-                sim.fields.declare(FieldSpec("Temperature_Change", Relation.NODE, halo=True))
-        if cond.target == "body_force":
-            sim.fields.declare(FieldSpec("External_Force_Density", Relation.NODE, Length.VECTOR))
+        declare_condition_fields(sim.fields, cond)
         sim.conditions.append(cond)
         if cond.stage == "initial":
             cond.apply_initial(sim)
@@ -430,13 +425,3 @@ class Model:
         """What ``peridyn run`` logs: per solver section its steps, time step and energy."""
         return {"solvers": [dict(s) for s in self.sim.stats.get("solvers", [])], "points": self.num_points,
                 "bonds": int(self.sim.num_bonds_global)}
-
-
-def _prepare_output_dir(folder: Path) -> None:
-    """Create the output folder (with its parents) when missing; InputError when it cannot be."""
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-    except FileExistsError:
-        raise InputError(f"the output folder {str(folder)!r} is a file", fix="give a folder for the output files") from None
-    except OSError as exc:
-        raise InputError(f"cannot create the output folder {str(folder)!r}: {exc.strerror or exc}", fix="give a folder you can write to") from None

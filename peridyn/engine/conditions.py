@@ -290,6 +290,17 @@ class BoundConditions:
     prescribed_dofs: np.ndarray  #: (num_local, 3) bool, True on displacement components a kinematic condition prescribes
 
 
+def declare_condition_fields(fields: Any, cond: Any) -> None:
+    """Declare the fields condition ``cond`` writes: Temperature (and, prescribed, its change),
+    or External_Force_Density."""
+    if cond.target == "temperature":
+        fields.declare(FieldSpec("Temperature", Relation.NODE))
+        if cond.stage == "kinematic":
+            fields.declare(FieldSpec("Temperature_Change", Relation.NODE, halo=True))
+    if cond.target == "body_force":
+        fields.declare(FieldSpec("External_Force_Density", Relation.NODE, Length.VECTOR))
+
+
 def create_conditions(sim: Any) -> BoundConditions:
     """Resolve the deck's node sets (mothership indices) and bind its boundary conditions to
     this rank's points; declares the fields the conditions need."""
@@ -383,12 +394,7 @@ def create_conditions(sim: Any) -> BoundConditions:
         conditions.append(obj)
     raise_collected(errors)
     for obj in conditions:
-        if obj.target == "temperature":
-            sim.fields.declare(FieldSpec("Temperature", Relation.NODE))
-            if obj.stage == "kinematic":
-                sim.fields.declare(FieldSpec("Temperature_Change", Relation.NODE, halo=True))
-        if obj.target == "body_force":
-            sim.fields.declare(FieldSpec("External_Force_Density", Relation.NODE, Length.VECTOR))
+        declare_condition_fields(sim.fields, obj)
     kinematic = [c for c in conditions if c.stage == "kinematic"]
     prescribed_dofs = np.zeros((sim.num_local, 3), dtype=bool)
     for c in kinematic:

@@ -37,6 +37,17 @@ def _name_max(folder: Path) -> int:
         return 255
 
 
+def prepare_output_dir(folder: Path, name: str = "the output folder") -> None:
+    """Create the output folder (with its parents) when missing; InputError naming it as ``name``
+    (``--output-dir``) when it is a file or cannot be made."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:
+        raise InputError(f"{name} {str(folder)!r} is a file, not a folder", fix="give a folder for the output files") from None
+    except OSError as exc:
+        raise InputError(f"cannot create the output folder {str(folder)!r}: {exc.strerror or exc}", fix="give a folder you can write to") from None
+
+
 def check_output_names(deck: "Deck", folder: Path) -> None:
     """InputError (naming Output > Output Filename) for an output name the file system cannot
     hold in ``folder``: checked before any work, so a run never fails at its first write."""

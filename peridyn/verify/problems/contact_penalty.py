@@ -10,7 +10,6 @@ so p = 200 gives the springs of ``hertz`` (k = 100 K) through the bulk modulus o
 """
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Any
 
@@ -65,11 +64,4 @@ class HertzPenalty(Hertz):
         """PeriLab's penalty force (N) on point i recomputed from the positions, c = p K for both
         bodies (the sphere's material has the block's bulk modulus)."""
         c = float(tree["Contact"]["Models"]["Springs"]["Penalty Factor"]) * K
-        n = sim.num_owned
-        y, vol = sim.fields["Coordinates"][:n], sim.fields["Volume"][:n]
-        horizon = np.array([float(b.horizon) for b in sim.blocks])[sim.block_index[:n]]
-        e = y[i] - y
-        d = np.linalg.norm(e, axis=1)
-        near = (sim.block_index[:n] != sim.block_index[i]) & (d < rc)
-        f = (4.5 * c / math.pi) * (horizon[i] ** -5 + horizon[near] ** -5) * (rc - d[near]) * vol[i] * vol[near]
-        return np.sum((f / d[near])[:, None] * e[near], axis=0)
+        return self.law_force(sim, i, 0.5 * c, rc)  # 4.5 c / pi = 9 k / pi: Short Range Force springs of k = c / 2
