@@ -54,6 +54,7 @@ class Progress:
         """``done`` steps of ``total`` finished; ``status``: what to show beside the count."""
         if not self.enabled:
             return
+        self.done = done
         if status:
             self.status = status
         if self.bar is not None:
@@ -64,8 +65,7 @@ class Progress:
             tenth = int(10 * min(done / self.total, 1.0))
             if tenth > self.last_tenth:
                 self.last_tenth = tenth
-                self._record(done)
-        self.done = done
+                self._record()
 
     def retotal(self, total: int) -> None:
         """The number of steps changed (a load step cut in two)."""
@@ -98,9 +98,9 @@ class Progress:
             parts.append(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}")
         return ", ".join(parts)
 
-    def _record(self, done: int) -> None:
+    def _record(self) -> None:
         elapsed = time.perf_counter() - self.start
-        self.done = done
+        done = self.done
         eta = self.eta()
         fields = {"event": "progress", "section": self.label, "unit": self.unit, "done": done, "total": self.total,
                   "elapsed_s": round(elapsed, 3), "eta_s": round(eta, 3) if eta != float("inf") else None, **self.status}
