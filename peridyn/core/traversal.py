@@ -49,6 +49,18 @@ class PointSum:
     before a bond's geometry: False skips the bond (e.g. broken for good). With ``width`` w > 1
     the term returns a w-tuple, summed component by component (each in bond order), ``acc`` is
     a w-tuple, ``finish`` returns a w-tuple, and ``out`` is (n, w).
+
+    ``mirror`` (default True): on one thread a closed block may run the law mirrored
+    (``peridyn.kernels.mirror``), applying it from both ends of each bond in one visit. That
+    needs what a parallel gather already needs (a point's functions touch only its own entries
+    and its own bonds' entries) and one thing more: ``point`` must not write (it is then called
+    for a neighbor at each of the neighbor's bonds it visits, not once). A law whose point
+    function starts a sum in an array says ``mirror=False``.
+
+    ``both(i, j, b, rb, ex, ey, ez, L, z, p, pj, args) -> (t_i, t_j)``, optional (width 1): the
+    term of bond ``b`` seen from i and of its reverse ``rb`` seen from j (eta = -(ex, ey, ez),
+    ``pj`` = point(j)) in one call, each the bits ``term`` gives, for mirrored kernels to share
+    the work of the two ends (e.g. one stretch test); called where both gates pass.
     """
 
     term: Callable
@@ -59,6 +71,8 @@ class PointSum:
     z_from_positions: bool = False
     z_from_codes: bool = False
     allocates: bool = False
+    mirror: bool = True
+    both: Callable | None = None
 
 
 @dataclass(frozen=True)
@@ -79,7 +93,8 @@ class PairForce:
     """Force density of a pair-wise (fused) force: ``out[i] = sum_b (s / L) eta`` with
     ``s = pair(bond context)`` the magnitude of the bond's force on ``i`` from both ends times
     ``V_j`` (M L^-2 T^-2 times L, i.e. ``(t_ij + t_ji) V_j``); bonds with ``L = 0`` exert none.
-    ``out`` (n, 3) force per volume. ``gate`` as in :class:`PointSum`.
+    ``out`` (n, 3) force per volume. ``gate``, ``mirror`` and ``both`` (here the two ends'
+    ``pair`` values) as in :class:`PointSum`.
     """
 
     pair: Callable
@@ -88,6 +103,8 @@ class PairForce:
     z_from_positions: bool = False
     z_from_codes: bool = False
     allocates: bool = False
+    mirror: bool = True
+    both: Callable | None = None
 
 
 @dataclass(frozen=True)

@@ -81,7 +81,7 @@ def johnson_cook_finish(i, acc, p, args):
     return acc
 
 
-JOHNSON_COOK = PointSum(johnson_cook_term, point=damage_sum_point, finish=johnson_cook_finish)
+JOHNSON_COOK = PointSum(johnson_cook_term, point=damage_sum_point, finish=johnson_cook_finish, mirror=False)  # point writes
 
 
 def johnson_cook_kernel(start, stop, offsets, neighbors, y, volume, J, horizon, kind, m_u, eqps_n, eqps_np1, triax, d1, d2, d3,

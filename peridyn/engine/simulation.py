@@ -289,16 +289,15 @@ class Simulation:
         return offsets, neighbors
 
     def _order_points(self, disc, offsets, neighbors, horizon) -> None:
-        """Local order: owned points by block, then along a space-filling curve; then ghosts (by
-        owner, then global id). Rows are sorted by global id; ghosts have empty rows."""
+        """Local order: owned points by block, then along a space-filling curve or by global id
+        (``geometry.neighbors.storage_rank``); then ghosts (by owner, then global id). Rows are sorted by global
+        id; ghosts have empty rows."""
         from ..core.bonds import NeighborList
-        from ..geometry.neighbors import renumber, sort_rows, space_filling_order
+        from ..geometry.neighbors import renumber, sort_rows, storage_rank
 
         owned = self.owned_mothership
         n_owned = owned.size
-        sfc = space_filling_order(disc.x[owned]) if n_owned else np.zeros(0, np.int64)
-        rank = np.empty(n_owned, dtype=np.int64)
-        rank[sfc] = np.arange(n_owned)
+        rank = storage_rank(disc.x, disc.gid, self.block_index_mothership, owned, offsets, neighbors, serial=self.comm.size == 1)
         # under MPI the rows with a ghost neighbor go after the others within each block, so
         # the others can be computed while the ghosts' values travel
         boundary = self._has_ghost_neighbor(offsets, neighbors, n_owned)
@@ -316,7 +315,8 @@ class Simulation:
         n_local = order.size
         new_of_old = np.full(disc.num_points, -1, dtype=np.int64)
         new_of_old[order] = np.arange(n_local)
-        offsets, neighbors = renumber(offsets, neighbors, new_of_old, row_order)
+        if not (n_local == disc.num_points and np.array_equal(order, np.arange(n_local))):  # else already so
+            offsets, neighbors = renumber(offsets, neighbors, new_of_old, row_order)
         if ghosts.size:
             offsets = np.concatenate([offsets, np.full(ghosts.size, offsets[-1], dtype=np.int64)])
         gid_local = disc.gid[order]

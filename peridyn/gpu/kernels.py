@@ -110,7 +110,7 @@ def _block_sum(buf, t):
 @cuda.jit(cache=True)
 def energy_partials(n, du, f_old, f_new, b_old, b_new, volume, free, v, mass, a, partial):
     """Per-block partial sums (``SUMS`` per block, row ``blockIdx.x`` of ``partial``) of the
-    step's work and energies, each point's terms as ``step_work_kernel`` and
+    step's work and energies, each point's terms as ``step_account_kernel`` and
     ``kinetic_free_kernel`` compute them (the last sum without its factor dt^2 / 4)."""
     buf = cuda.shared.array((SUMS, REDUCE_THREADS), float64)
     t = cuda.threadIdx.x

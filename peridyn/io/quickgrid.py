@@ -214,15 +214,24 @@ def _grid_neighbors(points, x, n0, n1, n2, w0, w1, w2, periodic1, spherical, del
         i = p % n0
         j = (p // n0) % n1
         kz = p // (n0 * n1)
-        j0 = 0 if periodic1 else max(j - w1, 0)
-        j1 = n1 if periodic1 else min(j + w1 + 1, n1)
+        # the window on axis 1 as up to two ascending ranges [a0, a1) and [b0, b1): on the
+        # periodic axis the cells within circular distance w1, wrapped (not a pass over the ring)
+        a0 = max(j - w1, 0)
+        a1 = min(j + w1 + 1, n1)
+        b0 = 0
+        b1 = 0
+        if periodic1:
+            if 2 * w1 + 1 >= n1:
+                a0, a1 = 0, n1
+            elif j - w1 < 0:
+                a0, a1, b0, b1 = 0, j + w1 + 1, j - w1 + n1, n1
+            elif j + w1 >= n1:
+                a0, a1, b0, b1 = 0, j + w1 + 1 - n1, j - w1, n1
         pos = offsets[q] if fill else 0
         c = 0
         for kk in range(max(kz - w2, 0), min(kz + w2 + 1, n2)):
-            for jj in range(j0, j1):
-                dj = abs(jj - j)
-                if min(dj, n1 - dj) > w1:  # only ever true on the periodic axis
-                    continue
+            for t in range((a1 - a0) + (b1 - b0)):
+                jj = a0 + t if t < a1 - a0 else b0 + (t - (a1 - a0))
                 for ii in range(max(i - w0, 0), min(i + w0 + 1, n0)):
                     g = ii + jj * n0 + kk * n0 * n1
                     if g == p:

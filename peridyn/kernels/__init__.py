@@ -36,8 +36,18 @@ def select_backend(name: str | None = None) -> Backend:
 
 def compiled(block, law: Law) -> Callable[..., Any]:
     """The kernel of ``law`` on the backend of ``block`` (a ``BlockView``; the default backend
-    when the view names none)."""
-    return (block.backend or default_backend()).kernel(law)
+    when the view names none). On one CPU thread, the sums of a closed block run mirrored
+    (``peridyn.kernels.mirror``: each bond once, the same bits)."""
+    backend = block.backend or default_backend()
+    kernel = backend.kernel(law)
+    if block.closed and getattr(backend, "one_thread", None) is not None and backend.one_thread():
+        from . import mirror
+
+        if mirror.enabled():
+            k = backend.mirror_kernel(law)
+            if k is not None:
+                return mirror.mirrored(block, kernel, k)
+    return kernel
 
 
 def on_host(block) -> bool:

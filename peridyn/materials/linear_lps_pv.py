@@ -267,7 +267,7 @@ FORCE_STATE = BondMap(force_state_bond, point=displacement_point, **REF)  # out:
 #: omega = 1, no damage, no partial volumes: laws without the optional arrays
 DILATATION_PLAIN = PointSum(dilatation_plain_term, point=displacement_point, finish=dilatation_finish, **REF)
 FORCE_STATE_PLAIN = BondMap(force_state_plain_bond, point=plain_point, **REF)
-FUSED_FORCE = PointSum(fused_force_term, point=fused_force_point, **REF)  # out: f[:, 0], f (n, 3) in args
+FUSED_FORCE = PointSum(fused_force_term, point=fused_force_point, mirror=False, **REF)  # out: f[:, 0], f (n, 3) in args; point writes
 STORED_ENERGY = PointSum(stored_energy_term, point=energy_point, finish=stored_energy_finish, **REF)
 STORED_ENERGY_PARTIAL = PointSum(stored_energy_partial_term, point=energy_point, finish=stored_energy_finish, **REF)
 

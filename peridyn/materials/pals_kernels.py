@@ -335,7 +335,7 @@ WEIGHTED_VOLUME = PointSum(weighted_volume_term)
 #: theta_i = sum_j (1-d) ((omega r) e) V_j (dimensionless; no 3/m factor: the multipliers
 #: normalise omega) into out, and the Pals pressure p_i = sum_j (1-d) (-((2 mu)(sigma r))/3) e V_j
 #: + (K + (2 mu) m_i / 9) theta_i (stress, M L^-1 T^-2) into args' P
-THETA_PRESSURE = PointSum(theta_term, point=theta_point, finish=theta_finish)
+THETA_PRESSURE = PointSum(theta_term, point=theta_point, finish=theta_finish, mirror=False)  # point writes
 FORCE_STATE = BondMap(force_state_bond, point=force_state_point)
 STORED_ENERGY = PointSum(stored_energy_term, point=energy_point, finish=stored_energy_finish)
 

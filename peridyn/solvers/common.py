@@ -75,29 +75,45 @@ def kinetic_free_kernel(n, v, mass, free):
 
 
 @njit(cache=True)
-def step_work_kernel(n, du, f_old, f_new, b_old, b_new, volume, free):
-    """(internal work on all components, internal work on prescribed components, body-force
-    work on free components) of one step, trapezoidal rule; b_old empty = no body force."""
+def step_account_kernel(n, du, f_old, f_new, b_old, b_new, volume, free, v, a, mass):
+    """One step's sums in one pass over the points: (internal work on all components, internal
+    work on prescribed components, body-force work on free components) by the trapezoidal rule
+    (b_old empty: no body force), the kinetic energy of the free components
+    (``kinetic_free_kernel`` of v), the sum of the force densities (finite or not) and
+    ``kinetic_free_kernel`` of the accelerations a (a empty: 0). Each sum in point order, the
+    same bits as separate passes (cube40: one pass instead of four)."""
     w_all = 0.0
     w_presc = 0.0
     w_body = 0.0
+    kinetic = 0.0
+    force = 0.0
+    shadow = 0.0
     has_b = b_old.shape[0] > 0
+    has_a = a.shape[0] > 0
     for i in range(n):
-        a = 0.0
+        w = 0.0
         p = 0.0
         q = 0.0
+        k = 0.0
+        g = 0.0
         for c in range(3):
-            w = 0.5 * (f_old[i, c] + f_new[i, c]) * du[i, c]
-            a += w
+            fw = 0.5 * (f_old[i, c] + f_new[i, c]) * du[i, c]
+            w += fw
+            force += f_new[i, c]
             if free[i, c]:
                 if has_b:
                     q += 0.5 * (b_old[i, c] + b_new[i, c]) * du[i, c]
+                k += v[i, c] * v[i, c]
+                if has_a:
+                    g += a[i, c] * a[i, c]
             else:
-                p += w
-        w_all += a * volume[i]
+                p += fw
+        w_all += w * volume[i]
         w_presc += p * volume[i]
         w_body += q * volume[i]
-    return w_all, w_presc, w_body
+        kinetic += 0.5 * mass[i] * k
+        shadow += 0.5 * mass[i] * g
+    return w_all, w_presc, w_body, kinetic, force, shadow
 
 
 #: largest energy balance error of a trusted run, relative to its energy (see EnergyMonitor)
@@ -187,7 +203,7 @@ class EnergyMonitor:
         self.stored = 0.0  # relative to the start of this solver
         self.external = 0.0
         self.constraint = 0.0
-        self._pending = (0.0, 0.0, 0.0)
+        self._pending = None  # (du, f_old, f_new, b_old, b_new) of the step's force_work
         self.history: list[tuple[float, float]] = []  # (kinetic, energy scale) of recent steps
         self.max_balance = 0.0  # largest |balance| seen
         self.max_scale = abs(self.kinetic0)  # largest energy present at any time
@@ -250,12 +266,8 @@ class EnergyMonitor:
         """Account for one step: displacement increment du (n, 3), internal force densities
         before/after, body force densities before/after (or None). The sums are reduced over
         ranks together with the next ``check`` (one reduction per step)."""
-        sim = self.sim
         empty = self._empty
-        self._pending = step_work_kernel(
-            sim.num_owned, du, f_old, f_new, b_old if b_old is not None else empty, b_new if b_new is not None else empty,
-            sim.fields["Volume"], self.free,
-        )
+        self._pending = (du, f_old, f_new, b_old if b_old is not None else empty, b_new if b_new is not None else empty)
 
     def account(self) -> dict[str, float]:
         """The run's energy account for the summary (see ``_account``)."""
@@ -288,9 +300,14 @@ class EnergyMonitor:
         """Account for the step just completed (after ``force_work``); raises InstabilityError."""
         sim = self.sim
         n = sim.num_owned
-        w_all, w_presc, w_body = self._pending
-        self._pending = (0.0, 0.0, 0.0)
-        local = np.array([w_all, w_presc, w_body, self._kinetic_local(), float(np.sum(sim.fields["Force_Density"][:n])), self._shadow_local()])
+        work, self._pending = self._pending, None
+        a = sim.acceleration
+        if work is None:  # no force_work this step: no work done
+            f = sim.fields["Force_Density"]
+            work = (np.zeros_like(f), f, f, self._empty, self._empty)
+        w_all, w_presc, w_body, kinetic, force, shadow = step_account_kernel(
+            n, *work, sim.fields["Volume"], self.free, sim.fields["Velocity"], a if a is not None else self._empty, self.mass)
+        local = np.array([w_all, w_presc, w_body, kinetic, force, 0.25 * self.dt * self.dt * shadow])
         if sim.comm.size == 1:
             self._account(step, time, local)
             return

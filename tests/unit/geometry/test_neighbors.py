@@ -12,8 +12,10 @@ from peridyn.geometry.neighbors import (
     omit_bonds_between_blocks,
     radius_search,
     renumber,
+    row_runs,
     sort_rows,
     space_filling_order,
+    storage_rank,
 )
 
 
@@ -342,3 +344,28 @@ def test_space_filling_order_improves_locality():
     # degenerate inputs
     assert space_filling_order(np.zeros((0, 3))).size == 0
     assert space_filling_order(np.ones((5, 3))).tolist() == [0, 1, 2, 3, 4]
+
+
+def test_row_runs_counts_breaks_in_consecutive_storage():
+    offsets = np.array([0, 3, 5, 5], dtype=np.int64)
+    neighbors = np.array([1, 2, 4, 0, 2], dtype=np.int32)
+    assert row_runs(offsets, neighbors, np.arange(5, dtype=np.int64)) == 2 + 2
+    assert row_runs(offsets, neighbors, np.array([0, 4, 3, 2, 1], dtype=np.int64)) == 3 + 2
+
+
+def test_a_serial_lattice_numbered_axis_by_axis_is_stored_by_id_else_along_the_curve():
+    x = lattice(10)
+    n = len(x)
+    gid = np.arange(n)
+    block = np.zeros(n, dtype=np.int64)
+    owned = np.arange(n)
+    off, nb = radius_search(x, np.full(n, 3.0))
+    hilbert = np.empty(n, dtype=np.int64)
+    hilbert[space_filling_order(x)] = np.arange(n)
+    assert np.array_equal(storage_rank(x, gid, block, owned, off, nb, serial=True), gid)
+    assert np.array_equal(storage_rank(x, gid, block, owned, off, nb, serial=False), hilbert)  # MPI: the curve
+    # ids that scatter the lattice: the curve (rows sorted by id then jump around either way,
+    # and the id order has no locality at all)
+    shuffled = np.random.default_rng(0).permutation(n)
+    rank = storage_rank(x, shuffled, block, owned, off, nb, serial=True)
+    assert np.array_equal(rank, hilbert)

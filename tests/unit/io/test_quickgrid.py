@@ -364,3 +364,33 @@ def test_params_neighborhood_type_and_generators():
     nr, num_rays, nz = cylinder_layout(p.tensor_product_cylinder)[:3]
     assert disc.num_points == nr * num_rays * nz
     assert PdQuickGrid.name == "PdQuickGrid" and PdQuickGrid.supports_bond_filters is False
+
+
+@pytest.mark.parametrize("shape, window", [((5, 40, 6), (2, 3, 2)), ((4, 9, 3), (1, 4, 1)), ((3, 10, 3), (1, 5, 1)), ((2, 7, 2), (1, 1, 1))])
+@pytest.mark.parametrize("spherical", [True, False])
+def test_the_ring_window_is_every_cell_within_circular_distance_in_ascending_id(shape, window, spherical):
+    from peridyn.io.quickgrid import _grid_neighbors
+
+    n0, n1, n2 = shape
+    w0, w1, w2 = window
+    n = n0 * n1 * n2
+    x = np.random.default_rng(1).random((n, 3))
+    points = np.arange(n, dtype=np.int64)
+    empty = np.zeros(1, dtype=np.int64)
+    counts = _grid_neighbors(points, x, n0, n1, n2, w0, w1, w2, True, spherical, 0.7, empty, empty, False)
+    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    got = np.zeros(offsets[-1], dtype=np.int64)
+    _grid_neighbors(points, x, n0, n1, n2, w0, w1, w2, True, spherical, 0.7, offsets, got, True)
+    for p in range(n):
+        i, j, k = p % n0, (p // n0) % n1, p // (n0 * n1)
+        want = []
+        for g in range(n):
+            gi, gj, gk = g % n0, (g // n0) % n1, g // (n0 * n1)
+            dj = abs(gj - j)
+            if g == p or abs(gi - i) > w0 or abs(gk - k) > w2 or min(dj, n1 - dj) > w1:
+                continue
+            d = x[p] - x[g]
+            if spherical and not ((d[0] * d[0] + d[1] * d[1]) + d[2] * d[2]) - 0.7 * 0.7 < 0.0:
+                continue
+            want.append(g)
+        assert got[offsets[p]:offsets[p + 1]].tolist() == want
