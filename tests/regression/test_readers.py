@@ -66,4 +66,14 @@ def test_exodiff_reads_the_run_output(run_output):
         import exodiff
     finally:
         sys.path.pop(0)
-    assert exodiff.compare([str(run_output)], str(DATA / "two_materials_gold.e"), None, quiet=True) == []
+    assert exodiff.compare([str(run_output)], str(DATA / "two_materials_gold.e"), str(DATA / "two_materials.comp"), quiet=True) == []
+    # the tolerances can fail: a displacement 1e-6 off at one point is caught
+    from netCDF4 import Dataset
+
+    moved = run_output.with_name("moved.e")
+    shutil.copy(run_output, moved)
+    with Dataset(moved, "a") as ds:
+        names = [n.tobytes().decode().strip("\x00 ") if hasattr(n, "tobytes") else str(n) for n in ds.variables["name_nod_var"][:]]
+        k = next(i for i, n in enumerate(names) if n.replace(" ", "") == "DisplacementY") + 1
+        ds.variables[f"vals_nod_var{k}"][-1, 0] += 1e-6
+    assert exodiff.compare([str(moved)], str(DATA / "two_materials_gold.e"), str(DATA / "two_materials.comp"), quiet=True) != []
