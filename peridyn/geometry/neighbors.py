@@ -528,8 +528,8 @@ def storage_rank(x: np.ndarray, gid: np.ndarray, block: np.ndarray, owned: np.nd
     Hilbert curve (``space_filling_order``) or, in a serial run whose rows follow the global ids
     in fewer runs of consecutive points (``row_runs``; a lattice numbered axis by axis), in
     global-id order. Rows are summed in global-id order either way; the id order also lets one
-    thread compute each bond once (``peridyn.kernels.mirror``). cube40, one thread: the elastic
-    force pass 38 -> 29 ms gathered.
+    thread compute each bond once (``peridyn.kernels.mirror``). A copy of the elastic force
+    loop on cube40's bonds, one thread, gathered: 38 ms in Hilbert order, 29 ms in id order.
 
     x (m, 3), gid (m,), block (m,) of every point; owned (n_owned,) the owned points' indices in
     those; offsets, neighbors the owned points' rows (entries index x).
