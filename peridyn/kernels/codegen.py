@@ -243,7 +243,7 @@ def point_loop(law: Law, loop: str, unsigned: bool = False, mirror: bool = False
     pre = ["i = i & 0x7FFFFFFFFFFFFFFF"] if unsigned or mirror else []
     pre.append("p = point(i, args)" if law.point is not None else "p = 0.0")
     own = _own(law)
-    slots = _slots(law, "i")
+    slots = sum_slots(law, "i")
     # a mirrored row's sums start from what its lower neighbors' rows already added
     pre += [f"{a} = {slot if mirror else '0.0'}" for a, slot in zip(own, slots)] if not isinstance(law, BondMap) else []
     if isinstance(law, PointSum) and law.width == 1:
@@ -267,7 +267,7 @@ def point_loop(law: Law, loop: str, unsigned: bool = False, mirror: bool = False
     return f"    {loop}\n{body}\n"
 
 
-def _slots(law: Law, i: str) -> list[str]:
+def sum_slots(law: Law, i: str) -> list[str]:
     """The elements of ``out`` that hold point ``i``'s sums."""
     if isinstance(law, PairForce):
         return [f"out[{i}, {k}]" for k in range(3)]
@@ -311,14 +311,14 @@ def mirror_body(law: Law, indent: str) -> str:
     lines += ["    " + s for s in _geometry()]
     lines += ["    nx = -ex", "    ny = -ey", "    nz = -ez"]  # y_i - y_j, exactly
     mine = _accumulate(law, "i", "j", "b", "ex", "ey", "ez", "z", "p", _own(law))
-    theirs = _accumulate(law, "j", "i", "rb", "nx", "ny", "nz", "zj", "pj", _slots(law, "j"))
+    theirs = _accumulate(law, "j", "i", "rb", "nx", "ny", "nz", "zj", "pj", sum_slots(law, "j"))
     apart = ["if gi:"] + ["    " + s for s in mine] + ["if gj:"] + ["    " + s for s in theirs] if gate else mine + theirs
     if law.both is not None:
         if isinstance(law, PointSum) and law.width != 1:
             raise TypeError(f"a law's 'both' function is for sums of width 1 and pair forces: {law!r}")
         together = ["ti, tj = both(i, j, b, rb, ex, ey, ez, L, z, p, pj, args)"]
         together += _accumulate(law, "i", "j", "b", "ex", "ey", "ez", "z", "p", _own(law), value="ti")
-        together += _accumulate(law, "j", "i", "rb", "nx", "ny", "nz", "zj", "pj", _slots(law, "j"), value="tj")
+        together += _accumulate(law, "j", "i", "rb", "nx", "ny", "nz", "zj", "pj", sum_slots(law, "j"), value="tj")
         conditions = (["gi", "gj"] if gate else []) + ([] if law.z_from_positions or law.z_from_codes else ["zj == z"])
         if conditions:
             lines += ["    if " + " and ".join(conditions) + ":"] + ["        " + s for s in together]

@@ -63,7 +63,7 @@ class NumbaBackend(Backend):
         nrt = "" if law.allocates else ", _nrt=False"
         mirror = ""
         if codegen.mirrorable(law):
-            zero = "\n".join(f"        {slot} = 0.0" for slot in codegen._slots(law, "i"))
+            zero = "\n".join(f"        {slot} = 0.0" for slot in codegen.sum_slots(law, "i"))
             mirror = MIRROR.format(nrt=nrt, mirror_body=codegen.point_loop(law, "if True:", mirror=True), zero=zero)
         return HEADER.format(
             backend=self.name,
