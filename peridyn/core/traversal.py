@@ -145,6 +145,17 @@ class Backend(ABC):
     def kernel(self, law: Law) -> Callable[..., Any]:
         """The loop of ``law``: ``kernel(start, stop, offsets, neighbors, zeta, y, args, out)``."""
 
+    def mirror_kernel(self, law: Law) -> Callable[..., Any] | None:
+        """The mirrored loop of ``law`` (``peridyn.kernels.mirror``: each bond once, for both
+        ends, the gather's bits), ``mirror_kernel(start, stop, offsets, neighbors, zeta, y, args,
+        out, upper, cursor)``, or None: this backend has none (the default), or the law none."""
+        return None
+
+    def one_thread(self) -> bool:
+        """Whether the loops run on one thread, where a closed block's sums may run mirrored
+        (False by default: a backend with ``mirror_kernel`` says when)."""
+        return False
+
     def zeros(self, shape: int | tuple[int, ...], dtype: Any = float) -> Any:
         """A zero-filled array where this backend's kernels read it."""
         import numpy as np

@@ -290,8 +290,8 @@ class Simulation:
 
     def _order_points(self, disc, offsets, neighbors, horizon) -> None:
         """Local order: owned points by block, then along a space-filling curve or by global id
-        (``geometry.neighbors.storage_rank``); then ghosts (by owner, then global id). Rows are sorted by global
-        id; ghosts have empty rows."""
+        (``geometry.neighbors.storage_rank``); then ghosts (by owner, then global id). Rows are
+        sorted by global id; ghosts have empty rows."""
         from ..core.bonds import NeighborList
         from ..geometry.neighbors import renumber, sort_rows, storage_rank
 

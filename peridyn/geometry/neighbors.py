@@ -503,7 +503,7 @@ def row_runs(offsets, neighbors, position):
     """Runs of consecutive storage positions along the rows: the number of bonds whose neighbor
     is not stored right after the previous neighbor of its row (plus one a non-empty row).
     offsets (n+1,), neighbors (B,) indices into position (m,) int64. Fewer runs, fewer streams for
-    a gather over the rows to follow (``Simulation`` picks the layout with fewer)."""
+    a gather over the rows to follow (``storage_rank`` picks the layout with fewer)."""
     runs = 0
     for i in range(offsets.size - 1):
         for b in range(offsets[i], offsets[i + 1]):

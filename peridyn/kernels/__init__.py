@@ -40,7 +40,7 @@ def compiled(block, law: Law) -> Callable[..., Any]:
     (``peridyn.kernels.mirror``: each bond once, the same bits)."""
     backend = block.backend or default_backend()
     kernel = backend.kernel(law)
-    if block.closed and getattr(backend, "one_thread", None) is not None and backend.one_thread():
+    if block.closed and backend.one_thread():
         from . import mirror
 
         if mirror.enabled():

@@ -164,24 +164,24 @@ def loop_body(law: Law, indent: str, unsigned: bool = False) -> str:
         lines.append("    if not gate(i, b, p, args):")
         lines.append("        continue")
     lines.append("    j = neighbors[b] & 0x7FFFFFFF" if unsigned else "    j = neighbors[b]")
-    lines += ["    " + s for s in _reference_length(law, "z", "b")]
+    lines += ["    " + s for s in _reference_length(law)]
     lines += ["    " + s for s in _geometry()]
     lines += ["    " + s for s in _accumulate(law, "i", "j", "b", "ex", "ey", "ez", "z", "p", _own(law))]
     return "\n".join(indent + line for line in lines)
 
 
-def _reference_length(law: Law, name: str, b: str, i: str = "i", j: str = "j", x0: str = "xi") -> list[str]:
-    """``name`` = |xi| of bond ``b`` (from i to j) as the law reads it."""
+def _reference_length(law: Law) -> list[str]:
+    """``z`` = |xi| of bond ``b`` (from i to j) as the law reads it."""
     if law.z_from_positions:  # |x_j - x_i| with the engine's Bond_Length arithmetic
         return [
-            f"dx = zeta[{j}, 0] - {x0}0",
-            f"dy = zeta[{j}, 1] - {x0}1",
-            f"dz = zeta[{j}, 2] - {x0}2",
-            f"{name} = math.sqrt(dx * dx + dy * dy + dz * dz)",
+            "dx = zeta[j, 0] - xi0",
+            "dy = zeta[j, 1] - xi1",
+            "dz = zeta[j, 2] - xi2",
+            "z = math.sqrt(dx * dx + dy * dy + dz * dz)",
         ]
     if law.z_from_codes:
-        return [f"{name} = ztable[zcodes[{b}]]"]
-    return [f"{name} = zeta[{b}]"]
+        return ["z = ztable[zcodes[b]]"]
+    return ["z = zeta[b]"]
 
 
 def _geometry() -> list[str]:
@@ -303,7 +303,7 @@ def mirror_body(law: Law, indent: str) -> str:
             "    if not gi and not gj:",
             "        continue",
         ]
-    lines += ["    " + s for s in _reference_length(law, "z", "b")]
+    lines += ["    " + s for s in _reference_length(law)]
     if law.z_from_positions or law.z_from_codes:  # |x_i - x_j| = |x_j - x_i|: the same bits
         lines.append("    zj = z")
     else:

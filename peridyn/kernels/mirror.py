@@ -6,17 +6,18 @@ block whose bonds all stay inside it, whose rows are symmetric (j in i's row exa
 j's) and whose points are stored in ascending row key (global id; serial runs store them so when
 that is the better layout, ``geometry.neighbors.storage_rank``) can do each bond once: rows run
 in order, and row i visits only its *upper* bonds (neighbors with a larger key), applies the law
-from both ends and adds j's term to ``out[j]``. Every point then receives its terms in ascending key of the neighbor, which is the
-order of its own row and so the order the gather kernel sums them in: the results are the same
-bits (``tests/unit/kernels/test_mirror.py``). j's bond back to i is found without a reverse index:
-j's lower neighbors arrive in ascending order, so it is the next of j's bonds (``cursor[j]``).
+from both ends and adds j's term to ``out[j]``. Every point then receives its terms in ascending
+key of the neighbor, which is the order of its own row and so the order the gather kernel sums
+them in: the results are the same bits (``tests/unit/kernels/test_mirror.py``). j's bond back
+to i is found without a reverse index: j's lower neighbors arrive in ascending order, so it is
+the next of j's bonds (``cursor[j]``).
 
 This module holds the plan of a range of rows (where each row's upper bonds start, the cursors),
 made once per neighbor list and range and checked bond by bond; the kernels are generated with
-each law's (``codegen.mirror_body``). Measured on cube40 (64,000 points, 7.15 M
-bonds, one core, the kernels alone, against the gathers in the same point order): the elastic
-force pass 26-27 -> 21-22 ms, the dilatation 15 -> 10 ms, with critical-stretch damage the force
-34-35 -> 26 ms (``benchmarks/results/side_by_side.md``).
+each law's (``codegen.mirror_body``). Measured on cube40 (64,000 points, 7.15 M bonds, one
+core, the kernels alone, against the gathers in the same point order): the elastic force pass
+26-27 -> 21-22 ms, the dilatation 15 -> 10 ms, with critical-stretch damage the force 34-35 ->
+26 ms (``benchmarks/results/side_by_side.md``).
 """
 from __future__ import annotations
 

@@ -87,8 +87,6 @@ class NumbaBackend(Backend):
         return self.module(law).kernel
 
     def one_thread(self) -> bool:
-        """Whether this backend's loops run on one thread (then a closed block's sums may take
-        the mirrored kernels: the same bits, each bond computed once)."""
         if not self.parallel:
             return True
         import numba
@@ -96,7 +94,6 @@ class NumbaBackend(Backend):
         return numba.config.NUMBA_NUM_THREADS == 1 or numba.get_num_threads() == 1
 
     def mirror_kernel(self, law: Law) -> Callable[..., Any] | None:
-        """``mirror_kernel(start, stop, offsets, neighbors, zeta, y, args, out, upper, cursor)`` of ``law`` (``peridyn.kernels.mirror``), or None for a law without one."""
         return self.module(law).mirror_kernel if codegen.mirrorable(law) else None
 
 

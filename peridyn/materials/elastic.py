@@ -173,7 +173,7 @@ def pair_force(i, j, b, ex, ey, ez, L, z, p, args):
         k_j = (1.0 - bond_damage[reverse[b]] if reverse.shape[0] > 0 and reverse[b] >= 0 else k_i) if has_damage else 1.0
         t = w * (k_i * (ci * z + k_i * ai * e_i) + k_j * (c[j] * z + k_j * a[j] * e_j))
     else:
-        t = w * ((ci + c[j]) * z + (ai + a[j]) * e)
+        t = w * plain_magnitude(ai, ci, a[j], c[j], z, e)
     return t * volume[j]
 
 
@@ -183,13 +183,23 @@ def packed_point(i, args):
     return P[i, 3], P[i, 4]
 
 
+def plain_magnitude(ai, ci, aj, cj, z, e):
+    """(t_ij + t_ji) / omega of an intact bond of stretch e = |eta| - |xi| (``pair_force``'s
+    undamaged, unheated form; symmetric in its two ends, bit for bit)."""
+    return (ci + cj) * z + (ai + aj) * e
+
+
+def damaged_magnitude(k, ai, ci, aj, cj, z, e):
+    """``plain_magnitude`` for a bond kept by k = 1 - d at both ends."""
+    return k * (ci * z + k * ai * e) + k * (cj * z + k * aj * e)
+
+
 def pair_force_plain(i, j, b, ex, ey, ez, L, z, p, args):
     """``pair_force`` for omega = 1, no damage, no thermal strain, on packed records (y, a, c, V):
     no branch in the bond loop."""
     P = args[0]
     ai, ci = p
-    t = (ci + P[j, 4]) * z + (ai + P[j, 3]) * (L - z)
-    return t * P[j, 5]
+    return plain_magnitude(ai, ci, P[j, 3], P[j, 4], z, L - z) * P[j, 5]
 
 
 def pair_force_plain_both(i, j, b, rb, ex, ey, ez, L, z, p, pj, args):
@@ -197,7 +207,7 @@ def pair_force_plain_both(i, j, b, rb, ex, ey, ez, L, z, p, pj, args):
     P = args[0]
     ai, ci = p
     aj, cj = pj
-    t = (ci + cj) * z + (ai + aj) * (L - z)
+    t = plain_magnitude(ai, ci, aj, cj, z, L - z)
     return t * P[j, 5], t * P[i, 5]
 
 
@@ -211,26 +221,19 @@ def pair_force_damage_plain(i, j, b, ex, ey, ez, L, z, p, args):
     arithmetic), on packed records; args (P, d)."""
     P, bond_damage = args
     ai, ci = p
-    k = 1.0 - bond_damage[b]
-    e = L - z
-    t = k * (ci * z + k * ai * e) + k * (P[j, 4] * z + k * P[j, 3] * e)
-    return t * P[j, 5]
+    return damaged_magnitude(1.0 - bond_damage[b], ai, ci, P[j, 3], P[j, 4], z, L - z) * P[j, 5]
 
 
 def pair_force_damage_plain_both(i, j, b, rb, ex, ey, ez, L, z, p, pj, args):
     """``pair_force_damage_plain`` from both ends; one force magnitude when the two ends' bond
     damage is equal (always, for the damage models this law is used with)."""
     P, bond_damage = args
+    if bond_damage[rb] != bond_damage[b]:
+        return (pair_force_damage_plain(i, j, b, ex, ey, ez, L, z, p, args),
+                pair_force_damage_plain(j, i, rb, -ex, -ey, -ez, L, z, pj, args))
     ai, ci = p
     aj, cj = pj
-    k = 1.0 - bond_damage[b]
-    if bond_damage[rb] != bond_damage[b]:
-        kj = 1.0 - bond_damage[rb]
-        e = L - z
-        return ((k * (ci * z + k * ai * e) + k * (cj * z + k * aj * e)) * P[j, 5],
-                (kj * (cj * z + kj * aj * e) + kj * (ci * z + kj * ai * e)) * P[i, 5])
-    e = L - z
-    t = k * (ci * z + k * ai * e) + k * (cj * z + k * aj * e)
+    t = damaged_magnitude(1.0 - bond_damage[b], ai, ci, aj, cj, z, L - z)
     return t * P[j, 5], t * P[i, 5]
 
 

@@ -253,7 +253,11 @@ class EnergyMonitor:
     def _shadow_of(self, a: np.ndarray) -> float:
         """C = dt^2/8 sum_i m_i |a_i|^2 over the owned points' free components, for accelerations
         ``a`` (n, 3): dt^2/4 times the kinetic energy a velocity field ``a`` would have."""
-        return 0.25 * self.dt * self.dt * kinetic_free_kernel(self.sim.num_owned, a, self.mass, self.free)
+        return self._shadow_from(kinetic_free_kernel(self.sim.num_owned, a, self.mass, self.free))
+
+    def _shadow_from(self, sum_: float) -> float:
+        """dt^2/4 times a ``kinetic_free_kernel`` sum of accelerations: C."""
+        return 0.25 * self.dt * self.dt * sum_
 
     def _kinetic_local(self) -> float:
         return kinetic_free_kernel(self.sim.num_owned, self.sim.fields["Velocity"], self.mass, self.free)
@@ -307,7 +311,7 @@ class EnergyMonitor:
             work = (np.zeros_like(f), f, f, self._empty, self._empty)
         w_all, w_presc, w_body, kinetic, force, shadow = step_account_kernel(
             n, *work, sim.fields["Volume"], self.free, sim.fields["Velocity"], a if a is not None else self._empty, self.mass)
-        local = np.array([w_all, w_presc, w_body, kinetic, force, 0.25 * self.dt * self.dt * shadow])
+        local = np.array([w_all, w_presc, w_body, kinetic, force, self._shadow_from(shadow)])
         if sim.comm.size == 1:
             self._account(step, time, local)
             return
