@@ -18,7 +18,7 @@ REDUCE_THREADS = 2 if config.ENABLE_CUDASIM else 128
 REDUCE_BLOCKS = 1 if config.ENABLE_CUDASIM else 1024
 #: sums of ``energy_partials`` (internal work, work on prescribed components, body-force
 #: work, kinetic energy of free components, sum of force densities, acceleration "shadow")
-SUMS = 6
+SUMS = 7
 
 
 @cuda.jit(cache=True)
@@ -111,7 +111,7 @@ def _block_sum(buf, t):
 def energy_partials(n, du, f_old, f_new, b_old, b_new, volume, free, v, mass, a, partial):
     """Per-block partial sums (``SUMS`` per block, row ``blockIdx.x`` of ``partial``) of the
     step's work and energies, each point's terms as ``step_account_kernel`` and
-    ``kinetic_free_kernel`` compute them (the last sum without its factor dt^2 / 4)."""
+    ``kinetic_free_kernel`` compute them (the last two sums without their factor dt^2 / 4)."""
     buf = cuda.shared.array((SUMS, REDUCE_THREADS), float64)
     t = cuda.threadIdx.x
     has_b = b_old.shape[0] > 0
@@ -121,12 +121,14 @@ def energy_partials(n, du, f_old, f_new, b_old, b_new, volume, free, v, mass, a,
     s_kin = 0.0
     s_f = 0.0
     s_shadow = 0.0
+    s_load = 0.0
     for i in range(cuda.grid(1), n, cuda.gridsize(1)):
         w_a = 0.0
         w_p = 0.0
         w_b = 0.0
         kin = 0.0
         sh = 0.0
+        e = 0.0
         for c in range(3):
             w = 0.5 * (f_old[i, c] + f_new[i, c]) * du[i, c]
             w_a += w
@@ -134,6 +136,7 @@ def energy_partials(n, du, f_old, f_new, b_old, b_new, volume, free, v, mass, a,
             if free[i, c]:
                 if has_b:
                     w_b += 0.5 * (b_old[i, c] + b_new[i, c]) * du[i, c]
+                    e += b_new[i, c] * b_new[i, c]
                 kin += v[i, c] * v[i, c]
                 sh += a[i, c] * a[i, c]
             else:
@@ -143,12 +146,15 @@ def energy_partials(n, du, f_old, f_new, b_old, b_new, volume, free, v, mass, a,
         s_body += w_b * volume[i]
         s_kin += 0.5 * mass[i] * kin
         s_shadow += 0.5 * mass[i] * sh
+        if e > 0.0:
+            s_load += 0.5 * volume[i] * volume[i] / mass[i] * e
     buf[0, t] = s_all
     buf[1, t] = s_presc
     buf[2, t] = s_body
     buf[3, t] = s_kin
     buf[4, t] = s_f
     buf[5, t] = s_shadow
+    buf[6, t] = s_load
     _block_sum(buf, t)
     if t == 0:
         for k in range(SUMS):

@@ -79,15 +79,17 @@ def step_account_kernel(n, du, f_old, f_new, b_old, b_new, volume, free, v, a, m
     """One step's sums in one pass over the points: (internal work on all components, internal
     work on prescribed components, body-force work on free components) by the trapezoidal rule
     (b_old empty: no body force), the kinetic energy of the free components
-    (``kinetic_free_kernel`` of v), the sum of the force densities (finite or not) and
-    ``kinetic_free_kernel`` of the accelerations a (a empty: 0). Each sum in point order, the
-    same bits as separate passes (cube40: one pass instead of four)."""
+    (``kinetic_free_kernel`` of v), the sum of the force densities (finite or not),
+    ``kinetic_free_kernel`` of the accelerations a (a empty: 0) and ``kinetic_free_kernel`` of
+    the accelerations b_new / rho the loads alone give (0 without a body force). Each sum in
+    point order, the same bits as separate passes (cube40: one pass instead of four)."""
     w_all = 0.0
     w_presc = 0.0
     w_body = 0.0
     kinetic = 0.0
     force = 0.0
     shadow = 0.0
+    load = 0.0
     has_b = b_old.shape[0] > 0
     has_a = a.shape[0] > 0
     for i in range(n):
@@ -96,6 +98,7 @@ def step_account_kernel(n, du, f_old, f_new, b_old, b_new, volume, free, v, a, m
         q = 0.0
         k = 0.0
         g = 0.0
+        e = 0.0
         for c in range(3):
             fw = 0.5 * (f_old[i, c] + f_new[i, c]) * du[i, c]
             w += fw
@@ -103,6 +106,7 @@ def step_account_kernel(n, du, f_old, f_new, b_old, b_new, volume, free, v, a, m
             if free[i, c]:
                 if has_b:
                     q += 0.5 * (b_old[i, c] + b_new[i, c]) * du[i, c]
+                    e += b_new[i, c] * b_new[i, c]
                 k += v[i, c] * v[i, c]
                 if has_a:
                     g += a[i, c] * a[i, c]
@@ -113,7 +117,9 @@ def step_account_kernel(n, du, f_old, f_new, b_old, b_new, volume, free, v, a, m
         w_body += q * volume[i]
         kinetic += 0.5 * mass[i] * k
         shadow += 0.5 * mass[i] * g
-    return w_all, w_presc, w_body, kinetic, force, shadow
+        if e > 0.0:
+            load += 0.5 * volume[i] * volume[i] / mass[i] * e
+    return w_all, w_presc, w_body, kinetic, force, shadow, load
 
 
 #: largest energy balance error of a trusted run, relative to its energy (see EnergyMonitor)
@@ -203,6 +209,7 @@ class EnergyMonitor:
         self.stored = 0.0  # relative to the start of this solver
         self.external = 0.0
         self.constraint = 0.0
+        self.load_shadow = 0.0  # C_b of the last step (see supply)
         self._pending = None  # (du, f_old, f_new, b_old, b_new) of the step's force_work
         self.history: list[tuple[float, float]] = []  # (kinetic, energy scale) of recent steps
         self.max_balance = 0.0  # largest |balance| seen
@@ -233,10 +240,18 @@ class EnergyMonitor:
             self._check_start()
 
     def supply(self) -> float:
-        """S = K0 + E0 + |W_b| + |W_c| (+ what the body released, where E0 is unknown): the most
-        energy the run can hold, since breaking bonds, friction and plasticity only dissipate."""
+        """S = K0 + E0 + |W_b| + |W_c| + 2 C_b (+ what the body released, where E0 is unknown): the
+        most energy the run can hold, since breaking bonds, friction and plasticity only dissipate.
+
+        C_b = dt^2/8 sum m |b/rho|^2 (free components) is the part of C the loads b alone give:
+        a load that has just grown (a ramp, a step in time, a load switched on at any step) has
+        done no work yet, because the drift that carries its work comes a step after its
+        acceleration, while C already holds its share. The next step's drift then does about
+        2 C_b of work on a body at rest (a load present from t = 0 does exactly that in the
+        first step). C_b is bounded by the loads, so a blow-up still passes it."""
         e0 = self.stored0 if self.stored0 is not None else max(self.shadow0, self.released)
-        return self.kinetic0 + max(e0, 0.0) + abs(self.external) + abs(self.constraint) + self.floor
+        return (self.kinetic0 + max(e0, 0.0) + abs(self.external) + abs(self.constraint) + 2.0 * self.load_shadow
+                + self.floor)
 
     @staticmethod
     def _energy_known(sim) -> bool:
@@ -309,9 +324,9 @@ class EnergyMonitor:
         if work is None:  # no force_work this step: no work done
             f = sim.fields["Force_Density"]
             work = (np.zeros_like(f), f, f, self._empty, self._empty)
-        w_all, w_presc, w_body, kinetic, force, shadow = step_account_kernel(
+        w_all, w_presc, w_body, kinetic, force, shadow, load = step_account_kernel(
             n, *work, sim.fields["Volume"], self.free, sim.fields["Velocity"], a if a is not None else self._empty, self.mass)
-        local = np.array([w_all, w_presc, w_body, kinetic, force, self._shadow_from(shadow)])
+        local = np.array([w_all, w_presc, w_body, kinetic, force, self._shadow_from(shadow), self._shadow_from(load)])
         if sim.comm.size == 1:
             self._account(step, time, local)
             return
@@ -331,12 +346,13 @@ class EnergyMonitor:
 
     def _account(self, step: int, time: float, total: np.ndarray) -> None:
         """One step's global sums: (internal work, work on prescribed components, body-force
-        work, kinetic energy of free components, sum of force densities)."""
+        work, kinetic energy of free components, sum of force densities, C, C_b)."""
         self.stored -= total[0]
         self.constraint -= total[1]
         self.external += total[2]
         self.kinetic = float(total[3])
         self.shadow = float(total[5])
+        self.load_shadow = float(total[6])
         if not (math.isfinite(total[3]) and math.isfinite(total[4])):
             self._fail_nonfinite(step, time)
         scale = self._scale()

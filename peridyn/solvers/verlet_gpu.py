@@ -2,7 +2,7 @@
 operation, with the fields on the device.
 
 Per step the host evaluates the node-set conditions' expressions (their values, one array per
-condition, go to the device), and reads back six sums for the energy monitor. Output frames,
+condition, go to the device), and reads back seven sums for the energy monitor. Output frames,
 the instability diagnosis and the end of the solver copy fields back to the host, where the
 output writers and computes run as on the CPU.
 """
@@ -41,7 +41,7 @@ def evaluate_forces(sim, dev: DeviceModel) -> Any:
 
 
 class DeviceEnergyMonitor(EnergyMonitor):
-    """:class:`EnergyMonitor` whose per-step sums are reduced on the device (six numbers cross
+    """:class:`EnergyMonitor` whose per-step sums are reduced on the device (seven numbers cross
     to the host per step); its diagnoses copy the fields back first."""
 
     def __init__(self, sim, dev: DeviceModel, acceleration, dt: float, dt_estimate: float, *, beyond_limit: bool) -> None:
@@ -71,6 +71,7 @@ class DeviceEnergyMonitor(EnergyMonitor):
         K.reduce_partials[1, K.REDUCE_THREADS](self._partial, self._blocks, self._out)
         s = self._out.copy_to_host()
         s[5] *= 0.25 * self.dt * self.dt
+        s[6] *= 0.25 * self.dt * self.dt
         self._account(step, time, s)
 
     def _sync(self) -> None:
