@@ -43,7 +43,7 @@ def cmd_run(args) -> int:
     output_dir = Path(args.output_dir) if args.output_dir else Path.cwd()
     if comm.size > 1:
         return _run_parallel(args, comm, output_dir, wall0)
-    from .engine.output import check_output_names, lock_outputs, release_locks
+    from .engine.output_paths import check_output_names, check_run_paths, lock_outputs, release_locks
 
     _prepare_output_dir(output_dir)
     deck = load_deck(args.deck)
@@ -51,6 +51,7 @@ def cmd_run(args) -> int:
     locks = lock_outputs(deck, output_dir)  # a second run of the deck in this folder is refused here
     try:
         sim = Simulation(deck, comm=comm, output_dir=output_dir, progress=not args.no_progress, backend=args.backend, device=args.device)
+        check_run_paths(sim)
         log_setup(sim)
         restart = None
         try:
@@ -85,7 +86,7 @@ def _attach_restart(sim, args):
 
 
 def _prepare_output_dir(folder: Path) -> None:
-    from .engine.output import prepare_output_dir
+    from .engine.output_paths import prepare_output_dir
 
     prepare_output_dir(folder, "--output-dir")
 
@@ -112,7 +113,7 @@ class _ReportedInputError(Exception):
 
 
 def _run_parallel(args, comm, output_dir: Path, wall0: float) -> int:
-    from .engine.output import release_locks
+    from .engine.output_paths import release_locks
 
     locks: list = []  # rank 0's output locks (the only rank that writes)
     try:
@@ -123,7 +124,7 @@ def _run_parallel(args, comm, output_dir: Path, wall0: float) -> int:
 
 def _run_parallel_locked(args, comm, output_dir: Path, wall0: float, locks: list) -> int:
     from .deck.model import load_deck
-    from .engine.output import check_output_names, lock_outputs
+    from .engine.output_paths import check_output_names, check_run_paths, lock_outputs
     from .engine.simulation import Simulation
 
     try:
@@ -132,6 +133,7 @@ def _run_parallel_locked(args, comm, output_dir: Path, wall0: float, locks: list
         _agree_on_input(comm, lambda: check_output_names(deck, output_dir))
         locks.extend(_agree_on_input(comm, lambda: lock_outputs(deck, output_dir) if comm.rank == 0 else []))
         sim = _agree_on_input(comm, lambda: Simulation(deck, comm=comm, output_dir=output_dir, progress=not args.no_progress and comm.rank == 0, backend=args.backend, device=args.device))
+        _agree_on_input(comm, lambda: check_run_paths(sim) if comm.rank == 0 else None)
     except _ReportedInputError:
         return ExitCode.INPUT_ERROR
     except Exception as exc:  # a failure on one rank must not leave the others waiting
@@ -203,11 +205,12 @@ def cmd_check(args) -> int:
     from .engine.simulation import Simulation
 
     _setup_logging(args.verbose - args.quiet)
-    from .engine.output import check_output_names
+    from .engine.output_paths import check_output_names, check_run_paths
 
     deck = load_deck(args.deck)
     check_output_names(deck, Path.cwd())
     sim = Simulation(deck, output_dir=Path.cwd(), progress=False, write_files=False, device=args.device)  # a check writes nothing
+    check_run_paths(sim)
     nl = sim.bonds
     counts = nl.counts()
     vol = sim.fields["Volume"]
@@ -285,17 +288,22 @@ def cmd_plugins(args) -> int:
 
 
 def cmd_schema(args) -> int:
+    from .engine.output_paths import check_output_file, write_text_atomic
+
+    target, option = (args.reference, "--reference") if args.reference else (args.output, "-o")
+    if target:
+        check_output_file(Path(target), option)  # before the schema is built
     if args.reference:
         from .deck.reference import reference_markdown
 
-        Path(args.reference).write_text(reference_markdown())
+        write_text_atomic(Path(args.reference), reference_markdown(), "--reference")
         print(f"wrote {args.reference}")
         return ExitCode.OK
     from .deck.schema import deck_json_schema
 
     text = json.dumps(deck_json_schema(), indent=2)
     if args.output:
-        Path(args.output).write_text(text + "\n")
+        write_text_atomic(Path(args.output), text + "\n", "-o")
     else:
         print(text)
     return ExitCode.OK
@@ -303,15 +311,19 @@ def cmd_schema(args) -> int:
 
 def cmd_convert(args) -> int:
     from .deck.files import convert
+    from .engine.output_paths import check_output_file
 
+    check_output_file(Path(args.output), "convert OUT")
     convert(args.input, args.output)
     print(f"wrote {args.output}")
     return ExitCode.OK
 
 
 def cmd_new_plugin(args) -> int:
+    from .engine.output_paths import check_output_folder
     from .plugins.scaffold import new_plugin
 
+    check_output_folder(Path(args.directory), "--directory")
     path = new_plugin(args.name, kind=args.kind, directory=Path(args.directory))
     print(f"created {path}")
     print(f"  pip install -e {path} && pytest {path}")
@@ -322,22 +334,32 @@ def cmd_fragments(args) -> int:
     """Print the fragment-mass distribution of a result file (and plot it with --plot)."""
     from .io.fragment_report import format_table, fragment_table, plot_distribution
 
+    from .engine.output_paths import check_output_file, replace_atomic
+
     _setup_logging(0)
+    if args.plot:
+        check_output_file(Path(args.plot), "--plot")
     table = fragment_table(args.result, args.frame)
     print(format_table(table, top=args.top))
     if args.plot:
-        if plot_distribution(table, args.plot):
-            print(f"wrote {args.plot}")
-        else:
+        import importlib.util
+
+        if importlib.util.find_spec("matplotlib") is None:
             log.warning('no plot: matplotlib is not installed (pip install "peridyn[plot]")')
+        else:
+            replace_atomic(Path(args.plot), lambda tmp: plot_distribution(table, tmp), "--plot")
+            print(f"wrote {args.plot}")
     return ExitCode.OK
 
 
 def cmd_plot(args) -> int:
     """PREFIX_history.png and PREFIX_frame<K>_<field>.png of a result file."""
+    from .engine.output_paths import check_output_folder
     from .io.plot import plot
 
     _setup_logging(0)
+    if args.out:
+        check_output_folder(Path(args.out).parent, "--out")
     for png in plot(args.result, frames=args.frames, field=args.field, view=args.view, prefix=args.out):
         print(f"wrote {png}")
     return ExitCode.OK

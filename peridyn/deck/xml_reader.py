@@ -27,6 +27,9 @@ _XML_SCALAR_TYPES = {"double": _DOUBLE, "int": _INT, "bool": _BOOL, "string": _S
 _XML_ARRAY_TYPES = {"array(double)": _DOUBLE, "array(int)": _INT, "array(string)": _STRING}
 _XML_TRUE = frozenset({"true", "yes", "1"})
 _XML_FALSE = frozenset({"false", "no", "0"})
+#: the deepest nesting of elements a deck may have (Peridigm's decks nest a few levels); deeper
+#: trees are refused as they are read, before anything walks them recursively
+MAX_DEPTH = 64
 
 
 def _xml_scalar(text: str, kind: int) -> Leaf:
@@ -62,6 +65,7 @@ class _XmlReader:
         self.builder = _TreeBuilder(filename)
         self.parser = expat.ParserCreate()
         self.parser.SetParamEntityParsing(expat.XML_PARAM_ENTITY_PARSING_NEVER)
+        self.parser.ExternalEntityRefHandler = self.external_entity
         self.parser.StartElementHandler = self.start
         self.parser.EndElementHandler = self.end
         self.parser.StartDoctypeDeclHandler = self.doctype
@@ -86,7 +90,13 @@ class _XmlReader:
         raise self.error("entity declarations are not allowed in a deck",
                          fix="remove the <!ENTITY ...> declaration")
 
+    def external_entity(self, *_args: Any) -> int:
+        raise self.error("external entities are not allowed in a deck", fix="write the value into the deck itself")
+
     def start(self, tag: str, attrs: dict[str, str]) -> None:
+        if len(self.stack) + self.skip_depth >= MAX_DEPTH:
+            raise self.error(f"the deck nests its elements more than {MAX_DEPTH} levels deep (<{tag}> at this line)",
+                             fix=f"a deck nests a few levels of ParameterLists; close the ones left open or flatten the deck to at most {MAX_DEPTH} levels")
         if self.skip_depth:
             self.skip_depth += 1
             return
@@ -159,6 +169,9 @@ class _XmlReader:
                 line=exc.lineno,
                 fix="check that every tag is closed and every attribute value is quoted",
             ) from None
+        except (LookupError, UnicodeError) as exc:  # an encoding expat and Python do not know
+            raise InputError(f"cannot decode the XML deck: {exc}", file=self.filename, line=self.line,
+                             fix='save the deck as UTF-8 and declare <?xml version="1.0" encoding="UTF-8"?>') from None
         assert self.root is not None  # expat rejects a document without an element
         return self.root
 

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import contextlib
 import difflib
-import errno
 import logging
 import os
 from dataclasses import dataclass
@@ -26,139 +25,13 @@ if TYPE_CHECKING:  # pragma: no cover
 
 log = logging.getLogger("peridyn.output")
 
-#: the longest name a run gives an output file: NAME.partial.e (NAME.partial.h is as long)
-_LONGEST_SUFFIX = ".partial.e"
-
-
-def _name_max(folder: Path) -> int:
-    try:
-        return int(os.pathconf(folder, "PC_NAME_MAX"))
-    except (OSError, ValueError, AttributeError):
-        return 255
-
-
-def prepare_output_dir(folder: Path, name: str = "the output folder") -> None:
-    """Create the output folder (with its parents) when missing; InputError naming it as ``name``
-    (``--output-dir``) when it is a file or cannot be made."""
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-    except FileExistsError:
-        raise InputError(f"{name} {str(folder)!r} is a file, not a folder", fix="give a folder for the output files") from None
-    except OSError as exc:
-        raise InputError(f"cannot create the output folder {str(folder)!r}: {exc.strerror or exc}", fix="give a folder you can write to") from None
-
-
-def check_output_names(deck: "Deck", folder: Path) -> None:
-    """InputError (naming Output > Output Filename) for an output name the file system cannot
-    hold in ``folder``: checked before any work, so a run never fails at its first write."""
-    errors: list[InputError] = []
-    limit = _name_max(folder) if folder.is_dir() else 255
-    for out in deck.outputs:
-        longest = f"{out.filename}{_LONGEST_SUFFIX}"
-        try:
-            size = len(os.fsencode(longest))
-        except UnicodeError:
-            errors.append(InputError(f"'Output Filename' {out.params.output_filename!r} cannot be a file name on this system",
-                                     file=deck.file, path=out.path + ("Output Filename",), fix="use plain letters, digits, '-' and '_'"))
-            continue
-        if size > limit:
-            errors.append(InputError(
-                f"'Output Filename' is {len(out.params.output_filename)} characters: the file {out.filename[:20]}...{_LONGEST_SUFFIX} "
-                f"would have a {size}-byte name, more than the {limit} bytes this file system allows",
-                file=deck.file, path=out.path + ("Output Filename",),
-                fix=f"give a name of at most {limit - len(_LONGEST_SUFFIX)} bytes"))
-    raise_collected(errors)
-
-
-class OutputLock:
-    """An exclusive lock on an output name in a folder (``NAME.lock``, ``fcntl.flock``): a second
-    run writing the same files is refused at start. The kernel drops the lock when its process
-    ends, however it ends, so a crashed run never blocks the next one; the file is removed when
-    the lock is released."""
-
-    def __init__(self, path: Path) -> None:
-        self.path = path
-        self._fd: int | None = None
-
-    def acquire(self) -> bool:
-        """True if taken; False if another live process holds it. OSError for a folder that
-        cannot be written."""
-        import fcntl
-
-        while True:
-            fd = os.open(self.path, os.O_RDWR | os.O_CREAT | getattr(os, "O_CLOEXEC", 0), 0o644)
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except OSError as exc:
-                os.close(fd)
-                if exc.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
-                    return False
-                raise
-            try:  # the holder before us may have removed the file after we opened it: retry
-                same = os.fstat(fd).st_ino == os.stat(self.path).st_ino
-            except FileNotFoundError:
-                same = False
-            if same:
-                break
-            os.close(fd)
-        os.ftruncate(fd, 0)
-        os.write(fd, f"{os.getpid()}\n".encode())
-        self._fd = fd
-        return True
-
-    def holder(self) -> str:
-        try:
-            return self.path.read_text().strip()
-        except OSError:
-            return ""
-
-    def release(self) -> None:
-        if self._fd is None:
-            return
-        try:
-            os.unlink(self.path)  # while still held: nobody can take a lock on a removed file
-        except OSError:
-            pass
-        os.close(self._fd)
-        self._fd = None
-
-
-def lock_outputs(deck: "Deck", folder: Path) -> list[OutputLock]:
-    """Lock every output name of the deck in ``folder`` (rank 0 only: the one that writes).
-    InputError for a name another run is writing, or a folder where no file can be created."""
-    locks: list[OutputLock] = []
-    names: set[str] = set()
-    try:
-        for out in deck.outputs:
-            if out.filename in names:  # one run's NAME.e and NAME.h (a history section) share a name
-                continue
-            names.add(out.filename)
-            lock = OutputLock(folder / f"{out.filename}.lock")
-            key = out.path + ("Output Filename",)
-            try:
-                taken = lock.acquire()
-            except OSError as exc:
-                if exc.errno == errno.ENAMETOOLONG:
-                    raise InputError(f"the output path {str(folder / out.filename)!r} is too long for this file system",
-                                     file=deck.file, path=key, fix="give a shorter Output Filename or --output-dir") from None
-                raise InputError(f"cannot create files in the output folder {str(folder)!r}: {exc.strerror or exc}",
-                                 file=deck.file, path=key, fix="give a folder you can write to (--output-dir)") from None
-            if not taken:
-                who = lock.holder()
-                raise InputError(
-                    f"another run{f' (process {who})' if who.isdigit() else ''} is writing {out.filename}.e in {str(folder)!r} "
-                    f"(lock {lock.path.name}); two runs writing the same files would destroy each other's output",
-                    file=deck.file, path=key, fix="wait for it to end, or give this run another --output-dir or Output Filename")
-            locks.append(lock)
-    except BaseException:
-        release_locks(locks)
-        raise
-    return locks
-
-
-def release_locks(locks: list[OutputLock]) -> None:
-    for lock in locks:
-        lock.release()
+from .output_paths import (  # noqa: F401,E402 - their home before output_paths.py
+    OutputLock,
+    check_output_names,
+    lock_outputs,
+    prepare_output_dir,
+    release_locks,
+)
 
 #: point fields every deck may write without a compute (allocated on request when not already)
 STANDARD_FIELDS = {

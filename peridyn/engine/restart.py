@@ -28,11 +28,11 @@ import json
 import logging
 import os
 import re
+import shlex
 import signal
 import tempfile
 import threading
 import time
-import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -136,7 +136,7 @@ class Checkpoints:
         self._signal = max(self._signal, int(signum))
         if self.polling or self.writing:
             return  # a checkpoint at the end of this step (or after the one being written)
-        where = f"; the last checkpoint is {self.last_written}" if self.last_written else ""
+        where = f"; the last checkpoint is {self.last_written}: continue with '{continue_command(self.sim)}'" if self.last_written else ""
         raise RunInterrupted(f"stopped by {signal.Signals(signum).name} outside an explicit step loop{where}", signum, collective=False)
 
     def _agreed_signal(self, step: int, due: bool) -> int:
@@ -205,7 +205,7 @@ class Checkpoints:
         sim = self.sim
         at = f"after step {step} of solver section {self.section + 1}" if step is not None else f"after solver section {self.section + 1}"
         return RunInterrupted(f"stopped by {name} {at} (t = {sim.time:.6g}); checkpoint {self.last_written} written: continue with "
-                              f"'peridyn run {sim.deck.file} --restart'", signum)
+                              f"'{continue_command(sim)}'", signum)
 
     # -- writing ---------------------------------------------------------------------------------
     def write(self, section: int, step: int, monitor=None) -> Path | None:
@@ -325,24 +325,18 @@ class Checkpoints:
 
     # -- reading ---------------------------------------------------------------------------------
     def load(self, path: Path) -> None:
-        """Put the checkpoint ``path`` into the freshly set-up model; InputError (one line) for
-        a checkpoint this run cannot continue."""
-        sim = self.sim
-        deck = sim.deck
-        if not path.is_file():
-            raise InputError(f"no checkpoint {str(path)!r}", file=deck.file, path=("--restart",),
-                             fix="give a checkpoint file, or --restart alone for the latest of this deck")
-        try:
-            if not zipfile.is_zipfile(path):
-                raise ValueError("not an .npz file")
-            data = np.load(path, allow_pickle=False)
-            meta = json.loads(str(data["meta"]))
-        except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError) as exc:
-            raise InputError(f"{path.name} is not a readable peridyn checkpoint ({str(exc)[:100]})", file=deck.file, path=("--restart",),
-                             fix="give another checkpoint (the folder keeps the latest 'Keep' of them)") from None
-        with data:
+        """Put the checkpoint ``path`` into the freshly set-up model; InputError (one line, the
+        same on every rank) for a checkpoint this run cannot continue, before anything changes."""
+        from .checkpoint_check import agree, check_checkpoint, read_checkpoint
+
+        def checked() -> tuple[dict, dict, bool]:
+            meta, arrays = read_checkpoint(path)
             carry = self._check(path, meta)
-            self._restore(data, meta, carry=carry)
+            check_checkpoint(self.sim, path, meta, arrays, carry)
+            return meta, arrays, carry
+
+        meta, data, carry = agree(self.sim.comm, checked)
+        self._restore(data, meta, carry=carry)
         self.last_written = path
         if carry:
             log.info("starting from the state at the end of %s (t = %.6g), read from %s", Path(meta["deck"]).name, meta["time"], path)
@@ -356,32 +350,25 @@ class Checkpoints:
     def _check(self, path: Path, meta: dict) -> bool:
         """Refuse (InputError) a checkpoint this run cannot use; True when it is the end of
         another deck's run that this deck continues (Peridigm's restart: see :func:`carries_on`)."""
+        from .checkpoint_check import refusal
+
         sim = self.sim
-        deck = sim.deck
-
-        def refuse(problem: str, fix: str) -> None:
-            raise InputError(f"checkpoint {path.name}: {problem}", file=deck.file, path=("--restart",), fix=fix)
-
-        if meta.get("format") != FORMAT:
-            refuse(f"layout version {meta.get('format')!r}, this peridyn reads {FORMAT}", "continue it with the peridyn that wrote it")
         carry = meta["deck_hash"] != self.hash
-        if carry and not carries_on(meta, deck):
-            refuse(f"written by another deck ({Path(meta['deck']).name}), or by this one before it was changed, and it is not "
-                   "the end of a run whose last Final Time is this deck's first Initial Time",
-                   "restart with the deck that wrote it, unchanged but for its Restart section")
+        if carry and not carries_on(meta, sim.deck):
+            raise refusal(path, f"written by another deck ({Path(meta['deck']).name}), or by this one before it was changed, and it is not "
+                          "the end of a run whose last Final Time is this deck's first Initial Time",
+                          "restart with the deck that wrote it, unchanged but for its Restart section, or without --restart")
         if meta["num_global"] != sim.num_global or meta["num_bonds_global"] != sim.num_bonds_global:
-            refuse(f"{meta['num_global']} points and {meta['num_bonds_global']} bonds, this model {sim.num_global} and "
-                   f"{sim.num_bonds_global}", "restart with the mesh files that run read")
+            raise refusal(path, f"{meta['num_global']} points and {meta['num_bonds_global']} bonds, this model {sim.num_global} and "
+                          f"{sim.num_bonds_global}", "restart with the mesh files that run read")
         if sim.interfaces is not None:
-            refuse("Construct Interfaces (Interfaces.e) is not continued by a restart", "run the deck from its start")
-        if carry:
-            return True
+            raise refusal(path, "Construct Interfaces (Interfaces.e) is not continued by a restart", "run the deck from its start")
+        if not carry and meta["sections"] != len(sim.deck.solvers):
+            raise refusal(path, f"{meta['sections']} solver section(s), this deck {len(sim.deck.solvers)}", "restart with the deck that wrote it")
         missing = [nm for nm in meta["fields"] if nm not in sim.fields]
-        if missing:
-            refuse(f"holds fields this model does not declare ({', '.join(missing[:4])})", "restart with the deck that wrote it")
-        if len(meta["writers"]) != len(sim.outputs.writers):
-            refuse("its outputs differ from this deck's", "restart with the deck that wrote it")
-        return False
+        if missing and not carry:
+            raise refusal(path, f"holds fields this model does not declare ({', '.join(missing[:4])})", "restart with the deck that wrote it")
+        return carry
 
     def _restore(self, data, meta: dict, carry: bool = False) -> None:
         """Put the checkpoint's state into the model. ``carry``: another deck's final state,
@@ -403,11 +390,11 @@ class Checkpoints:
         for name, kind in meta["fields"].items():
             if carry and (name not in store or store.specs[name].relation.name != meta.get("relations", {}).get(name, store.specs[name].relation.name)):
                 continue
-            layers = ["np1"] + (["n"] if name in meta["two_step"] else [])
-            for which in layers:
+            two_step = store.specs[name].temporal is Temporal.TWO_STEP and name in meta["two_step"]
+            for which in ["np1"] + (["n"] if two_step else []):
                 target = store[name] if which == "np1" else store.n(name)
                 key = f"{which}/{name}"
-                if carry and data[key].shape[1:] != target.shape[1:]:
+                if carry and (key not in data or data[key].shape[1:] != target.shape[1:]):
                     continue  # another deck's field of another length
                 if kind == "point":
                     point(key, target)
@@ -448,20 +435,13 @@ class Checkpoints:
         from ..io.exodus_writer import keep_steps
 
         sim = self.sim
-        for w, state in zip(sim.outputs.writers, meta["writers"]):
-            if state["section"] != w.entry.section:
-                raise InputError(f"the checkpoint's output {state['section']!r} is not this deck's {w.entry.section!r}",
-                                 file=sim.deck.file, path=("--restart",), fix="restart with the deck that wrote it")
+        for w, state in zip(sim.outputs.writers, meta["writers"]):  # checked by checkpoint_check.check_outputs
             w.count, w.frames = int(state["count"]), int(state["frames"])
             if not w.frames:
                 continue  # the file is (re)written from its start at the next frame
             if sim.comm.is_root:
                 partial, final = w.partial_path, w.path
-                source = partial if partial.exists() else final if final.exists() else None
-                if source is None:
-                    raise InputError(f"neither {partial.name} nor {final.name} is in {str(partial.parent)!r}: the {w.frames} frame(s) "
-                                     "written before the checkpoint are gone", file=sim.deck.file, path=("--restart",),
-                                     fix="give the --output-dir of the run that wrote the checkpoint")
+                source = partial if partial.is_file() else final
                 try:
                     held = keep_steps(source, w.frames)
                 except (OSError, ValueError) as exc:
@@ -508,6 +488,15 @@ def attach(sim, restart_arg: str | None) -> Checkpoints | None:
     return cp
 
 
+def continue_command(sim) -> str:
+    """The command line that continues this run from its latest checkpoint: the same number of
+    ranks (``mpiexec -n N``), deck and output folder."""
+    words = (["mpiexec", "-n", str(sim.comm.size)] if sim.comm.size > 1 else []) + ["peridyn", "run", str(sim.deck.file)]
+    if Path(sim.output_dir).resolve() != Path.cwd().resolve():
+        words += ["--output-dir", str(sim.output_dir)]
+    return shlex.join(words + ["--restart"])
+
+
 def carries_on(meta: dict, deck) -> bool:
     """Whether checkpoint ``meta`` is the end of a run (every solver section done) whose last
     Final Time is ``deck``'s first Initial Time (relative 1e-12): Peridigm's restart, where a
@@ -524,17 +513,15 @@ def peridigm_continuation(folder: Path, deck, stem: str) -> Path | None:
     (:func:`carries_on`), as Peridigm reads the newest ``restart-*`` folder; None if none."""
     if not folder.is_dir() or not deck.solvers or float(deck.solvers[0].params.initial_time) == 0.0:
         return None
+    from .checkpoint_check import read_meta
+
     found = []
     for path in folder.glob("*.npz"):
         m = _NAME.match(path.name)
         if m is None or m["stem"] == stem or int(m["step"]) != 0:
             continue
-        try:
-            with np.load(path, allow_pickle=False) as data:
-                meta = json.loads(str(data["meta"]))
-        except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError):
-            continue
-        if carries_on(meta, deck):
+        meta = read_meta(path)
+        if meta is not None and carries_on(meta, deck):
             found.append((path.stat().st_mtime, path))
     return max(found)[1] if found else None
 
