@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from ..core.errors import InputError, is_file
+from . import plausibility
 
 log = logging.getLogger("peridyn.engine")
 
@@ -53,12 +54,15 @@ def connected(sim: Any) -> None:
     if sim.num_bonds_global == 0 and sim.num_global > 1:
         spacing = float(np.cbrt(np.median(sim.discretization.volume)))
         horizons = ", ".join(f"{blk.name}: {blk.horizon_text}" for blk in sim.blocks)
+        hint = plausibility.no_neighbor_hint(sim)
         if sim.deck.contact is not None:  # points that interact by contact only
-            log.warning("no point has a neighbor (horizons %s, point spacing about %.3g): only contact acts", horizons, spacing)
+            log.warning("no point has a neighbor (horizons %s, point spacing about %.3g): only contact acts%s", horizons, spacing,
+                        f"; {hint}" if hint else "")
             return
         raise InputError(
-            f"no point has a neighbor: the horizons ({horizons}) are below the point spacing (about {spacing:.3g})",
-            file=sim.deck.file, path=("Blocks",), fix="give horizons of about three point spacings",
+            f"no point has a neighbor: the horizons ({horizons}) are below the point spacing (about {spacing:.3g})"
+            + (f"; {hint.partition(' give ')[0]}" if hint else ""),
+            file=sim.deck.file, path=("Blocks",), fix=f"give {hint.partition(' give ')[2]}" if hint else "give horizons of about three point spacings",
         )
     counts = sim.bonds.counts()[: sim.num_owned]
     lonely = np.nonzero(counts == 0)[0]
@@ -116,6 +120,7 @@ def horizon_scale(sim: Any, disc: Any, horizon: np.ndarray) -> None:
                 "is a neighbor of every other long before that, and the micromoduli (1/horizon^4) would vanish",
                 file=sim.deck.file, path=where, fix=f"give a horizon of about three point spacings (spacing about {spacing:.3g})",
             )
+    plausibility.check_geometry(sim, disc, horizon)
 
 
 #: horizon/spacing below this gives a handful of neighbors per point (the peridynamic sums then
@@ -126,7 +131,8 @@ MIN_HORIZON_PER_SPACING = 2.0
 def horizon_spacing(sim: Any) -> None:
     """One warning per block whose mean horizon is below two point spacings (spacing taken as
     the cube root of the points' volumes, as ``peridyn check`` prints it), with its mean number
-    of neighbors."""
+    of neighbors; then the warnings of :func:`plausibility.check_materials` (moduli, densities
+    and wave speeds that look like a unit slip)."""
     vol = sim.fields["Volume"]
     counts = sim.bonds.counts()
     for blk in sim.blocks:
@@ -141,8 +147,10 @@ def horizon_spacing(sim: Any) -> None:
             continue
         ratio = h / s
         if ratio < MIN_HORIZON_PER_SPACING:
+            slip = plausibility.horizon_slip(ratio, h / n)
             log.warning(
                 "block %s: the horizon is %.3g point spacings (below %g): about %.1f neighbors per point, "
-                "too few for the peridynamic sums to resolve the deformation; give a horizon of about three spacings",
-                blk.name, ratio, MIN_HORIZON_PER_SPACING, nb / n,
+                "too few for the peridynamic sums to resolve the deformation; %s",
+                blk.name, ratio, MIN_HORIZON_PER_SPACING, nb / n, slip or "give a horizon of about three spacings",
             )
+    plausibility.check_materials(sim)

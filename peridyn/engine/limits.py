@@ -19,8 +19,10 @@ Estimates, in order of the set-up:
 
 A model over the memory limit or a run over ``MAX_STEPS`` steps or ``MAX_SECONDS`` of estimated
 wall time is an input error (exit 2) that states the estimate and the limit; a run estimated to
-take more than ``WARN_SECONDS`` gets a warning. ``PERIDYN_NO_LIMITS=1`` (or ``peridyn run
---no-limits``) turns the refusals into warnings for those who mean it.
+take more than ``WARN_SECONDS`` gets a warning. The ratios that betray a unit slip (a horizon of
+thousands of point spacings, say) are refused the same way, by :mod:`peridyn.engine.plausibility`.
+``PERIDYN_NO_LIMITS=1`` (or ``peridyn run --no-limits``) turns the refusals into warnings for
+those who mean it.
 """
 from __future__ import annotations
 
@@ -106,7 +108,9 @@ def human_seconds(s: float) -> str:
     return f"{s / (365 * 86400):.3g} years"
 
 
-def _refuse(message: str, *, file: str | None, path: tuple[str, ...], fix: str) -> None:
+def refuse(message: str, *, file: str | None, path: tuple[str, ...], fix: str) -> None:
+    """An InputError for a judgment of size (memory, steps, absurd ratios: see
+    :mod:`peridyn.engine.plausibility`), a warning instead under ``PERIDYN_NO_LIMITS``."""
     if limits_off():
         log.warning("%s (%s is set: running anyway)", message, ENV)
         return
@@ -130,7 +134,7 @@ def check_memory(points: float, bonds: float, *, file: str | None, path: tuple[s
     have = available_memory()
     if need > 0.9 * have:
         bonds_text = f" and about {bonds:.3g} bonds" if bonds else ""
-        _refuse(
+        refuse(
             f"{what}: {points:.3g} points{bonds_text} need about {_human_bytes(need)}, more than the "
             f"{_human_bytes(have)} of memory available",
             file=file,
@@ -177,7 +181,7 @@ def check_steps(steps: int, points: float, bonds: float, *, file: str | None, pa
     """Refuse absurd step counts and run times; warn about runs of hours. Returns the estimate (s)."""
     seconds = estimate_seconds(float(steps), points, bonds, tangent_entries=tangent_entries, finite_differences=finite_differences)
     if steps > MAX_STEPS or seconds > MAX_SECONDS:
-        _refuse(
+        refuse(
             f"{steps:.3g} steps, estimated {human_seconds(seconds)} "
             f"(limits: {MAX_STEPS:.0e} steps, {human_seconds(MAX_SECONDS)})",
             file=file,

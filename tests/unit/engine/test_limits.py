@@ -112,8 +112,15 @@ def test_a_huge_horizon_is_refused(tmp_path, capsys):
     assert "Horizon: horizon 1e+308" in capsys.readouterr().err
 
 
-def test_a_horizon_of_many_model_sizes_makes_every_point_a_neighbor(tmp_path, capsys):
+def test_a_horizon_of_hundreds_of_spacings_is_refused_unless_no_limits(tmp_path, capsys, monkeypatch):
+    """Issue #33: 400 spacings is no peridynamic model (a unit slip, as a rule); with the
+    override every point is a neighbor of every other."""
+    monkeypatch.delenv(limits.ENV, raising=False)
     deck = write(tmp_path, horizon="100.0")
+    assert main(["check", str(deck)]) == ExitCode.INPUT_ERROR
+    err = capsys.readouterr().err
+    assert "horizon 100 in block 'block_1' is 400 point spacings (spacing 0.25)" in err and "all 64 points bonded" in err
+    monkeypatch.setenv(limits.ENV, "1")
     assert main(["check", str(deck)]) == ExitCode.OK
     assert "64 points, 4032 bonds" in capsys.readouterr().out
 
