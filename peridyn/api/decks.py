@@ -6,6 +6,7 @@ deck loader, so a dict is typed and validated exactly as the same deck in a file
 """
 from __future__ import annotations
 
+import numbers
 import os
 from collections.abc import Mapping
 from dataclasses import replace
@@ -28,23 +29,35 @@ DICT_DECK_NAME = "<python deck>"
 
 
 def deck_tree(deck: str | os.PathLike | Mapping) -> dict:
-    """The raw tree of a deck file or a dict deck (a deep copy for a dict; no top key)."""
+    """The raw tree of a deck file or a dict deck (a deep copy for a dict, as :func:`plain`
+    makes it; no top key)."""
     if isinstance(deck, Mapping):
         tree = deck["Peridigm"] if set(deck) == {"Peridigm"} else deck
-        return _plain(tree)
+        if not isinstance(tree, Mapping):
+            raise InputError(f"the deck's 'Peridigm' entry is a {type(tree).__name__}, not a mapping of sections",
+                             file=DICT_DECK_NAME, path=("Peridigm",), fix="give {'Peridigm': {'Discretization': {...}, ...}} or the sections alone")
+        return plain(tree)
     from ..deck.files import load_deck_file
 
     return load_deck_file(deck).tree
 
 
-def _plain(value: Any) -> Any:
-    """A copy of ``value`` with numpy scalars and arrays as plain Python values."""
+def plain(value: Any) -> Any:
+    """A copy of ``value`` with numpy scalars and arrays as plain Python values, and lists read as
+    the same list in a YAML deck is: ints among floats become floats (``[0.002, 0, 0]``), numbers
+    among strings become strings. Bools, None and other objects are left for the deck's checks."""
     if isinstance(value, Mapping):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
+        return {str(k): plain(v) for k, v in value.items()}
     if isinstance(value, np.ndarray):
-        return _plain(value.tolist())
+        return plain(value.tolist())
+    if isinstance(value, (list, tuple)):
+        items = [plain(v) for v in value]
+        numbers_only = all(isinstance(v, numbers.Real) and not isinstance(v, bool) for v in items)
+        if numbers_only and any(isinstance(v, float) for v in items):
+            return [float(v) for v in items]
+        if any(isinstance(v, str) for v in items) and all(isinstance(v, (str, numbers.Real)) and not isinstance(v, bool) for v in items):
+            return [v if isinstance(v, str) else repr(float(v)) if isinstance(v, float) else str(v) for v in items]
+        return items
     if isinstance(value, np.generic):
         return value.item()
     return value
@@ -52,13 +65,40 @@ def _plain(value: Any) -> Any:
 
 def parse_tree(tree: Mapping, directory: str | os.PathLike | None = None) -> Deck:
     """Validate a dict deck. Relative file names in it (meshes, node-set files) are relative to
-    ``directory`` (default: the current folder); messages name ``<directory>/<python deck>``."""
+    ``directory`` (default: the current folder); messages name ``<directory>/<python deck>``.
+    Any value a deck cannot hold is an :class:`InputError` naming its deck path."""
     from ..deck.files import dump_yaml
     from ..deck.yaml_reader import parse_yaml_text
 
     folder = Path(directory) if directory is not None else Path.cwd()
-    text = dump_yaml(deck_tree(tree))
-    return parse_deck(parse_yaml_text(text, str(folder / DICT_DECK_NAME)))
+    name = str(folder / DICT_DECK_NAME)
+    try:
+        text = dump_yaml(deck_tree(tree))
+    except InputError as exc:
+        raise exc.in_file(name) from None
+    except (ValueError, TypeError) as exc:
+        where, why = _first_bad(deck_tree(tree), ()) or ((), str(exc))
+        raise InputError(why, file=name, path=where, fix="give a bool, int, float, str, a list of one kind of them, or a mapping") from None
+    except RecursionError:
+        raise InputError("the deck is nested too deeply", file=name, fix="give a deck of sections and values") from None
+    return parse_deck(parse_yaml_text(text, name))
+
+
+def _first_bad(tree: Mapping, path: tuple[str, ...]) -> tuple[tuple[str, ...], str] | None:
+    """(deck path, why) of the first value of ``tree`` no deck can hold, or None."""
+    from ..deck.files import dump_yaml
+
+    for key, value in tree.items():
+        if isinstance(value, Mapping):
+            found = _first_bad(value, path + (key,))
+            if found:
+                return found
+            continue
+        try:
+            dump_yaml({"v": value}, top_key=None)
+        except (ValueError, TypeError) as exc:
+            return path + (key,), str(exc).removeprefix("v: ")
+    return None
 
 
 def build_deck(deck: DeckLike, directory: str | os.PathLike | None = None) -> Deck:
@@ -101,25 +141,46 @@ def points_deck(x: np.ndarray, volume: np.ndarray, tree: Mapping, *, block_id: n
     shared keys (``Influence Function``, ``Bond Filters``, ``Omit Bonds Between Blocks``).
     ``node_sets``: name -> 0-based point indices, usable as ``Node Set`` in the deck's
     boundary conditions. Neighbors: every point within the horizon (inclusive)."""
-    x = np.ascontiguousarray(np.asarray(x, dtype=np.float64))
-    n = x.shape[0] if x.ndim == 2 else -1
-    if x.ndim != 2 or x.shape[1] not in (2, 3):
-        raise InputError(f"points: x has shape {x.shape}, expected (n, 3)", fix="give one row of 3 coordinates per point")
+    from .checks import ArgumentError, ArgumentTypeError, as_array, real_array, region_mapping
+
+    call = "Model.from_points"
+    if not isinstance(tree, Mapping):
+        raise ArgumentTypeError(f"deck must be a dict deck, not {type(tree).__name__}", path=(call, "deck"),
+                                fix="give the deck's sections as a dict, without Discretization")
+    x, volume, block_id = (as_array(call, arg, v) for arg, v in (("x", x), ("volume", volume), ("block_id", block_id)))
+    if x.ndim != 2 or x.shape[1] not in (2, 3) or x.shape[0] == 0:
+        raise ArgumentError(f"x has shape {x.shape}, expected (n, 3) (or (n, 2)) with n >= 1", path=(call, "x"),
+                            fix="give one row of 3 coordinates per point")
+    n = x.shape[0]
+    x = np.ascontiguousarray(real_array(call, "x", x, x.shape, np.float64))
     if x.shape[1] == 2:
         x = np.hstack([x, np.zeros((n, 1))])
-    volume = np.asarray(volume, dtype=np.float64).reshape(-1) if np.ndim(volume) else np.full(n, float(volume))
-    if volume.shape != (n,) or not np.all(np.isfinite(volume) & (volume > 0)):
-        raise InputError(f"points: volume must be {n} positive finite numbers (got shape {volume.shape})", fix="give one cell volume per point")
-    if not np.all(np.isfinite(x)):
-        raise InputError("points: x holds a non-finite coordinate", fix="give finite coordinates")
-    ids = np.broadcast_to(np.asarray(block_id, dtype=np.int64), (n,)).copy()
+    if volume.ndim and volume.shape != (n,):
+        raise ArgumentError(f"volume has shape {volume.shape}, expected ({n},): one cell volume per row of x", path=(call, "volume"),
+                            fix=f"give {n} volumes, or one number for all")
+    volume = np.array(real_array(call, "volume", volume, (n,), np.float64))
+    if not np.all(volume > 0):
+        raise ArgumentError(f"volume holds {int(np.count_nonzero(volume <= 0))} value(s) that are not positive", path=(call, "volume"),
+                            fix="give positive cell volumes (L^3)")
+    if block_id.ndim and block_id.shape != (n,):
+        raise ArgumentError(f"block_id has shape {block_id.shape}, expected ({n},)", path=(call, "block_id"),
+                            fix=f"give {n} block ids, or one int for all")
+    ids = np.array(real_array(call, "block_id", block_id, (n,), np.int64))
+    if not np.all(ids >= 1):
+        raise ArgumentError("block_id holds a value below 1", path=(call, "block_id"), fix="number blocks from 1 (block k is block_k)")
     sets = {}
+    if node_sets is not None and not isinstance(node_sets, Mapping):
+        raise ArgumentTypeError(f"node_sets must be a mapping name -> points, not {type(node_sets).__name__}", path=(call, "node_sets"),
+                                fix="give {'Left Node Set': indices, mask or region mapping, ...}")
     for name, members in (node_sets or {}).items():
-        idx = np.asarray(members)
-        idx = np.nonzero(idx)[0] if idx.dtype == bool else idx.astype(np.int64)
-        if idx.size and (idx.min() < 0 or idx.max() >= n):
-            raise InputError(f"points: node set {name!r} lists an index outside 0..{n - 1}", fix="give 0-based point indices")
-        sets[str(name)] = np.unique(idx)
+        arg = f"node_sets[{name!r}]"
+        if isinstance(members, Mapping):  # a region, evaluated on x with the regions' tolerance
+            from ..geometry.regions import region_mask
+
+            idx = np.nonzero(region_mask(region_mapping(call, arg, members), x, volume))[0]
+        else:
+            idx = point_indices(call, arg, members, n)
+        sets[str(name)] = idx
     from ..io.textfile import min_element_radius
 
     disc = Discretization(x=x, volume=volume, block_id=ids, gid=np.arange(n, dtype=np.int64),
@@ -137,3 +198,25 @@ def points_deck(x: np.ndarray, volume: np.ndarray, tree: Mapping, *, block_id: n
     reader = type("PythonPoints", (_ArrayReader,), {"points": disc})
     deck.discretization = replace(deck.discretization, type=_ArrayReader.name, cls=reader, params=_ArrayParams())
     return deck
+
+
+def point_indices(call: str, arg: str, members: Any, n: int) -> np.ndarray:
+    """Sorted unique 0-based indices of ``members``: 0-based indices (whole numbers in 0..n-1)
+    or a (n,) bool mask."""
+    from .checks import ArgumentError, ArgumentTypeError, as_array
+
+    arr = as_array(call, arg, members)
+    if arr.dtype == bool:
+        if arr.shape != (n,):
+            raise ArgumentError(f"{arg}: a mask has shape {arr.shape}, expected ({n},)", path=(call, arg), fix="one bool per point, mesh order")
+        return np.nonzero(arr)[0]
+    if arr.size == 0:
+        return np.zeros(0, dtype=np.int64)
+    if arr.dtype.kind not in "iuf" or (arr.dtype.kind == "f" and not np.all(np.isfinite(arr) & (arr == np.round(arr)))):
+        raise ArgumentTypeError(f"{arg} holds {arr.dtype} values that are not whole numbers", path=(call, arg),
+                                fix=f"give 0-based point indices (ints) or a ({n},) bool mask")
+    idx = arr.astype(np.int64).reshape(-1)
+    if idx.min() < 0 or idx.max() >= n:
+        bad = int(idx[(idx < 0) | (idx >= n)][0])
+        raise ArgumentError(f"{arg} holds the index {bad}, outside 0..{n - 1}", path=(call, arg), fix="give 0-based point indices")
+    return np.unique(idx)

@@ -20,13 +20,16 @@ import numpy as np
 from ..core.errors import InputError, InstabilityError, PeridynError
 from ..core.fields import Temporal
 from ..deck.model import tidy
-from .decks import DeckLike, build_deck, points_deck
+from .checks import (ArgumentError, ArgumentTypeError, UnknownNameError, a_callable, finite_number, name_text, real_array,
+                     region_mapping, whole_number)
+from .decks import DeckLike, build_deck, point_indices, points_deck
 
 log = logging.getLogger("peridyn.api")
 
-#: a node set: a deck node-set name, 0-based mesh indices, a (n,) bool mask in mesh order, or a
-#: callable of the (n, 3) reference positions returning such a mask
-NodesLike = Union[str, np.ndarray, list, Callable[[np.ndarray], np.ndarray]]
+#: a node set: a deck node-set name, a region mapping (``{"Half Space": {...}}``, docs/regions.md,
+#: with the regions' round-off tolerance), 0-based mesh indices, a (n,) bool mask in mesh order,
+#: or a callable of the (n, 3) reference positions returning such a mask
+NodesLike = Union[str, Mapping, np.ndarray, list, Callable[[np.ndarray], np.ndarray]]
 
 
 class RunEnded(PeridynError):
@@ -131,8 +134,23 @@ class Model:
 
     @property
     def dt(self) -> float:
-        """Time step of the section running now (T); 0 before the first step."""
-        return float(self.sim.time_step)
+        """Time step (T) of the section running now; before the first step, the step the first
+        section will take, computed as its solver computes it (Verlet: the critical time step
+        estimate or Fixed dt, times the Safety Factor; Implicit: its Fixed dt). A section whose
+        steps are not known before it runs (QuasiStatic, NOXQuasiStatic, ...) is an
+        ArgumentError saying so."""
+        if self._started:
+            return float(self.sim.time_step)
+        plan = self._solvers()
+        solver = plan[0][0]
+        if hasattr(solver, "time_step"):
+            return float(solver.time_step(self.sim, warn=False)[0])
+        fixed = [getattr(v, "fixed_dt", None) for v in vars(solver.params).values()]
+        fixed = [f for f in fixed if isinstance(f, (int, float)) and not isinstance(f, bool)]
+        if fixed:
+            return float(fixed[0])
+        raise ArgumentError(f"{solver.section}: {type(solver).__name__} chooses its steps as it runs; its time step is known after the "
+                            "first step", path=("Model.dt",), fix="read model.dt after step() or run(until=...)")
 
     @property
     def finished(self) -> bool:
@@ -142,10 +160,27 @@ class Model:
     def node_set(self, name: str) -> np.ndarray:
         """0-based mesh indices of a node set of the deck or the mesh (sorted)."""
         sets = self.sim.node_sets
-        key = tidy(name)
+        key = tidy(name_text("Model.node_set", "name", name))
         if key not in sets:
-            raise KeyError(f"no node set {name!r}; node sets: {', '.join(sorted(sets)) or 'none'}")
+            raise UnknownNameError(f"no node set {name!r}", path=("Model.node_set", "name"),
+                                   fix=f"node sets: {', '.join(sorted(sets)) or 'none'}")
         return np.unique(sets[key])
+
+    def select(self, region: Mapping) -> np.ndarray:
+        """(n,) bool mask, mesh order: the points whose reference positions lie in ``region``, a
+        region mapping as a deck's node set writes it (docs/regions.md), e.g.
+        ``{"Half Space": {"Point": [0.003, 0, 0], "Normal": [-1, 0, 0]}}``. Boundaries are
+        inclusive within 1e-4 of each point's spacing (``geometry.regions.TOLERANCE``), so a
+        lattice plane on a face is selected whatever the round-off of its coordinates, and
+        mirrored regions select mirrored points. Lengths in the deck's unit L."""
+        return self._select(region, "Model.select", "region")
+
+    def _select(self, region: Mapping, call: str, arg: str) -> np.ndarray:
+        from ..geometry.regions import region_mask
+
+        spec = region_mapping(call, arg, region)
+        disc = self.sim.discretization
+        return region_mask(spec, disc.x, disc.volume, path=(call, arg))
 
     # -- fields --------------------------------------------------------------------------------
     @property
@@ -164,22 +199,20 @@ class Model:
         """A point field in mesh order, as a new array: (n,) for scalars, (n, k) otherwise;
         ``Damage``, ``Displacement``, ``Velocity``, ``Force_Density`` (F L^-6 per unit
         volume), ... with the deck's units. A two-step field gives its value at the last step."""
-        array = self._field(name)
+        array = self._field(name, "Model.get")
         out = np.zeros((self.num_points,) + array.shape[1:], dtype=array.dtype)
         out[self._owned] = array[: self.sim.num_owned]
         return out
 
     def set(self, name: str, values: Any) -> None:
         """Write a point field, ``values`` in mesh order ((n,) or (n, k), or anything that
-        broadcasts to it). Writing ``Displacement`` also moves ``Coordinates`` (= reference +
+        broadcasts to it; real, finite numbers, whole numbers for an integer field: anything else
+        is an ArgumentError naming the field and the shape). Writing ``Displacement`` also moves ``Coordinates`` (= reference +
         displacement) and the reverse. Write before the first step to set an initial state; a
         write between steps changes the state the next step starts from (the energy check of an
         explicit run counts it as unexplained energy)."""
-        array = self._field(name)
-        n = self.num_points
-        new = np.broadcast_to(np.asarray(values, dtype=array.dtype), (n,) + array.shape[1:])
-        if not np.all(np.isfinite(new)):
-            raise ValueError(f"{name}: values must be finite")
+        array = self._field(name, "Model.set")
+        new = real_array("Model.set", f"values of {name}", values, (self.num_points,) + array.shape[1:], array.dtype)
         targets = [array]
         spec = self.sim.fields.specs[name]
         if spec.temporal is Temporal.TWO_STEP:
@@ -194,11 +227,11 @@ class Model:
             f["Displacement"][: self.sim.num_owned] = local - f["Model_Coordinates"][: self.sim.num_owned]
         self.sim.exchange_halo_fields()
 
-    def _field(self, name: str) -> np.ndarray:
+    def _field(self, name: str, call: str) -> np.ndarray:
         store = self.sim.fields
-        spec = store.specs.get(name)
+        spec = store.specs.get(name_text(call, "name", name))
         if spec is None or not spec.is_point or name not in store:
-            raise KeyError(f"no point field {name!r} in this run; fields: {', '.join(self.field_names)}")
+            raise UnknownNameError(f"no point field {name!r} in this run", path=(call, "name"), fix=f"fields: {', '.join(self.field_names)}")
         if spec.temporal is Temporal.TWO_STEP and self.steps_taken:
             return store.n(name)  # after a completed step N holds the newest values (N and NP1 swap)
         return store[name]
@@ -215,23 +248,39 @@ class Model:
         ``NodesLike``. Add conditions before the first step; initial conditions act at once."""
         if self._started:
             raise RunEnded("add conditions before the first step: the run has started")
+        from pydantic import ValidationError
+
         from ..engine.conditions import BCParams, declare_condition_fields
 
+        call = "Model.add_condition"
         sim = self.sim
-        key = tidy(type)
+        key = tidy(name_text(call, "type", type))
         registry = self.deck.registry
-        cls = registry.get("boundary_condition", key, path=("add_condition",))
+        try:
+            cls = registry.get("boundary_condition", key, path=(call, "type"))
+        except InputError as exc:
+            raise ArgumentError(exc.message, path=(call, "type"), fix=exc.fix) from None
+        if name is not None:
+            name_text(call, "name", name)
+        if not callable(value):
+            value = finite_number(call, "value", value) if not isinstance(value, str) else a_callable(call, "value", value, "value(t, x) -> (k,) or a number")
         label = name or f"python {type} {len(sim.conditions) + 1}"
-        params = BCParams.model_validate({"Type": type, "Node Set": label, "Coordinate": coordinate, "Value": 0.0})
+        if not isinstance(coordinate, str):
+            raise ArgumentTypeError(f"coordinate must be 'x', 'y' or 'z', not {coordinate!r}", path=(call, "coordinate"), fix="give 'x', 'y' or 'z'")
+        try:
+            params = BCParams.model_validate({"Type": type, "Node Set": label, "Coordinate": coordinate, "Value": 0.0})
+        except ValidationError as exc:
+            raise ArgumentError(f"coordinate {coordinate!r}: {exc.errors()[0]['msg']}", path=(call, "coordinate"),
+                                fix="give 'x', 'y' or 'z'") from None
         problems = [p for p in cls.check(params) if not p.startswith("Value")]
         if problems:
-            raise InputError("; ".join(problems), path=("add_condition",), fix="see the condition's Coordinate")
+            raise ArgumentError("; ".join(problems), path=(call, "coordinate"), fix="see the condition's Coordinate")
         cond = cls(params, entry_name=label)
         cond.params = params.model_copy(update={"value": f"<python {getattr(value, '__name__', 'callable')}>"})
         cond.expr = _PythonValue(value if callable(value) else (lambda t, x, c=float(value): np.full(len(x), c)))
-        members = self._local_points(nodes)
+        members = self._local_points(nodes, call)
         if members.size == 0:
-            raise InputError(f"{label}: the node set holds no point", path=("add_condition",), fix="give at least one point")
+            raise ArgumentError(f"{label}: the node set holds no point", path=(call, "nodes"), fix="give at least one point")
         cond.bind(members, sim.discretization.x[sim.mothership_of_local], sim.gid)
         declare_condition_fields(sim.fields, cond)
         sim.conditions.append(cond)
@@ -245,23 +294,16 @@ class Model:
         elif cond.stage == "force":
             sim.force_conditions.append(cond)
 
-    def _local_points(self, nodes: NodesLike) -> np.ndarray:
+    def _local_points(self, nodes: NodesLike, call: str) -> np.ndarray:
         """Owned local indices of ``nodes`` (sorted, unique)."""
         sim = self.sim
-        n = self.num_points
         if isinstance(nodes, str):
             mesh = self.node_set(nodes)
+        elif isinstance(nodes, Mapping):
+            mesh = np.nonzero(self._select(nodes, call, "nodes"))[0]
         else:
-            raw = nodes(self.sim.discretization.x) if callable(nodes) else nodes
-            arr = np.asarray(raw)
-            if arr.dtype == bool:
-                if arr.shape != (n,):
-                    raise InputError(f"a node mask has shape {arr.shape}, expected ({n},)", path=("nodes",), fix="one bool per point, mesh order")
-                mesh = np.nonzero(arr)[0]
-            else:
-                mesh = arr.astype(np.int64).reshape(-1)
-                if mesh.size and (mesh.min() < 0 or mesh.max() >= n):
-                    raise InputError(f"a node index is outside 0..{n - 1}", path=("nodes",), fix="give 0-based mesh indices")
+            raw = nodes(self.sim.discretization.x.copy()) if callable(nodes) else nodes
+            mesh = point_indices(call, "nodes", raw, self.num_points)
         local = sim.local_of_mothership[mesh]
         return np.unique(local[(local >= 0) & (local < sim.num_owned)])
 
@@ -269,15 +311,17 @@ class Model:
         """A quantity computed by ``fn(model)`` after the initial state (step 0) and after every
         ``every``-th step (and after a whole non-explicit section), kept in ``history(name)``.
         ``fn`` may return a number or an array (e.g. a field in mesh order); it is copied."""
-        if every < 1:
-            raise ValueError("every must be a positive number of steps")
-        self._computes[name] = (fn, int(every))
+        call = "Model.add_compute"
+        name_text(call, "name", name)
+        a_callable(call, "fn", fn, "fn(model) -> number or array")
+        every = whole_number(call, "every", every, 1)
+        self._computes[name] = (fn, every)
         self._history.setdefault(name, ([], []))
 
     def history(self, name: str) -> tuple[np.ndarray, np.ndarray]:
         """(times (m,), values (m, ...)) recorded by the compute ``name``."""
         if name not in self._history:
-            raise KeyError(f"no compute {name!r}; computes: {', '.join(self._history) or 'none'}")
+            raise UnknownNameError(f"no compute {name!r}", path=("Model.history", "name"), fix=f"computes: {', '.join(self._history) or 'none'}")
         times, values = self._history[name]
         return np.asarray(times, dtype=float), np.asarray(values)
 
@@ -369,8 +413,10 @@ class Model:
 
     def step(self, n: int = 1) -> "Model":
         """Take ``n`` time steps of the explicit section running now (its first call also does
-        the section's step 0: forces and output at the initial time). Returns the model."""
-        for _ in range(int(n)):
+        the section's step 0: forces and output at the initial time). ``n``: a whole number >= 0.
+        Returns the model."""
+        n = whole_number("Model.step", "n", n, 0)
+        for _ in range(n):
             if not self._advance(None):
                 raise RunEnded(f"the run has ended after {self.steps_taken} steps, at t = {self.time:.6g}")
         return self
@@ -384,8 +430,10 @@ class Model:
             while self._advance(math.inf):
                 pass
             return self
-        if not math.isfinite(until):
-            raise ValueError("until must be a finite time")
+        until = finite_number("Model.run", "until", until)
+        if until < self.time:
+            raise ArgumentError(f"until = {until!r} is before the current time {self.time!r}", path=("Model.run", "until"),
+                                fix="give a time at or after model.time, or None to run to the end")
         while not self._ended:
             if self._started and self.sim.time >= until - 1e-9 * max(self.sim.time_step, 0.0):
                 break
@@ -416,9 +464,19 @@ class Model:
         from .results import read
 
         writers = self.sim.outputs.writers
-        chosen = [w for w in writers if w.entry.section == which] if isinstance(which, str) else [writers[which]]
-        if not chosen:
-            raise KeyError(f"no output section {which!r}")
+        sections = ", ".join(repr(w.entry.section) for w in writers) or "none (the deck writes no output, or write_files=False)"
+        if isinstance(which, str):
+            chosen = [w for w in writers if w.entry.section == which]
+            if not chosen:
+                raise UnknownNameError(f"no output section {which!r}", path=("Model.results", "which"), fix=f"output sections: {sections}")
+        else:
+            k = whole_number("Model.results", "which", which, -len(writers))
+            if not writers:
+                raise ArgumentError("the model has no output file", path=("Model.results", "which"), fix=f"output sections: {sections}")
+            if k >= len(writers):
+                raise ArgumentError(f"which = {k}: the model has {len(writers)} output file(s), 0..{len(writers) - 1}",
+                                    path=("Model.results", "which"), fix=f"give 0..{len(writers) - 1} or a section name: {sections}")
+            chosen = [writers[k]]
         return read(chosen[0].path)
 
     def summary(self) -> dict[str, Any]:

@@ -9,7 +9,6 @@ import numpy as np
 
 from ..core.errors import InputError
 
-_COMPONENTS = ("X", "Y", "Z")
 
 
 class Results:
@@ -17,15 +16,18 @@ class Results:
     ``Model`` fields).
 
     ``times`` (m,) output times (T); ``ids`` (n,) 1-based global ids; ``x`` (n, 3) reference
-    positions; ``field(name, frame)`` a point field at one frame ((n,) or (n, 3): a vector
-    written as ``NameX``, ``NameY``, ``NameZ`` comes back as one (n, 3) array);
-    ``results[name]`` all frames ((m, n) or (m, n, 3)); ``globals`` name -> (m,) global
-    variables; ``node_sets`` name -> 0-based indices; ``raw`` what
+    positions; ``field(name, frame)`` a point field at one frame: (n,) for a scalar, (n, 3) for a
+    vector written as ``NameX``, ``NameY``, ``NameZ``, (n, 3, 3) for a tensor written as
+    ``NameXX``, ``NameXY``, ... ``NameZZ`` (or a symmetric one's six components);
+    ``results[name]`` all frames ((m, n), (m, n, 3) or (m, n, 3, 3)), a global variable
+    ((m,), (m, 3), (m, 3, 3)), or one component by its own name (``"Cauchy_StressXY"``:
+    (m, n)); ``globals`` name -> global variable (the components and the combined arrays);
+    ``node_sets`` name -> 0-based indices; ``raw`` what
     :func:`peridyn.io.exodus_reader.read_results` returns.
     """
 
     def __init__(self, path: str | os.PathLike) -> None:
-        from ..io.exodus_reader import read_results
+        from ..io.exodus_reader import combine_components, component_groups, read_results
 
         self.path = Path(path)
         if not self.path.is_file():
@@ -36,23 +38,26 @@ class Results:
         self.times: np.ndarray = raw["times"]
         self.ids: np.ndarray = raw["node_num_map"]
         self.x: np.ndarray = raw["coords"]
-        self.globals: dict[str, np.ndarray] = dict(raw["global"])
         self.node_sets: dict[str, np.ndarray] = dict(raw["node_sets"])
+        self.globals: dict[str, np.ndarray] = dict(raw["global"])
+        for base, (kind, names) in component_groups(list(raw["global"])).items():
+            self.globals.setdefault(base, combine_components(raw["global"], kind, names))
         self._fields: dict[str, np.ndarray] = {}
-        scalars = {**raw["element"], **raw["nodal"]}
-        taken: set[str] = set()
-        for name in scalars:
-            base = name[:-1]
-            if name[-1:] == "X" and all(base + c in scalars for c in _COMPONENTS):
-                self._fields[base] = np.stack([scalars[base + c] for c in _COMPONENTS], axis=-1)
-                taken.update(base + c for c in _COMPONENTS)
-        for name, values in scalars.items():
-            if name not in taken:
-                self._fields[name] = values
+        self._components: dict[str, np.ndarray] = {}
+        for table in (raw["element"], raw["nodal"]):  # a nodal variable wins over an element one of its name
+            taken: set[str] = set()
+            for base, (kind, names) in component_groups(list(table)).items():
+                self._fields[base] = combine_components(table, kind, names)
+                taken.update(names)
+            for name, values in table.items():
+                if name in taken:
+                    self._components[name] = values
+                else:
+                    self._fields[name] = values
 
     @property
     def fields(self) -> list[str]:
-        """Names of the point fields in the file (vectors under their base name)."""
+        """Names of the point fields in the file (vectors and tensors under their base name)."""
         return sorted(self._fields)
 
     @property
@@ -63,19 +68,31 @@ class Results:
         try:
             return self._fields[name]
         except KeyError:
+            if name in self._components:
+                return self._components[name]
             if name in self.globals:
                 return self.globals[name]
             raise KeyError(f"no field {name!r} in {self.path.name}; fields: {', '.join(self.fields)}; "
                            f"global variables: {', '.join(sorted(self.globals)) or 'none'}") from None
 
     def field(self, name: str, frame: int = -1) -> np.ndarray:
-        """A point field at output frame ``frame`` (default: the last), mesh order."""
-        return self[name][frame]
+        """A point field at output frame ``frame`` (default: the last; -m..m-1), mesh order."""
+        from .checks import ArgumentError, whole_number
+
+        values = self[name]
+        k = whole_number("Results.field", "frame", frame, -self.num_frames)
+        if k >= self.num_frames:
+            raise ArgumentError(f"frame {k}: {self.path.name} holds frames 0..{self.num_frames - 1}", path=("Results.field", "frame"),
+                                fix=f"give 0..{self.num_frames - 1}, or -1 for the last")
+        return values[k]
 
     def frame_at(self, t: float) -> int:
         """The index of the frame whose time is closest to ``t``."""
+        from .checks import ArgumentError, finite_number
+
+        t = finite_number("Results.frame_at", "t", t)
         if not self.num_frames:
-            raise IndexError(f"{self.path.name} holds no frame")
+            raise ArgumentError(f"{self.path.name} holds no frame", path=("Results.frame_at",), fix="read a file the run wrote frames to")
         return int(np.argmin(np.abs(self.times - t)))
 
     def __repr__(self) -> str:

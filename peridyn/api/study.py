@@ -20,7 +20,10 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from .decks import DeckLike, deck_tree
+from .checks import ArgumentError, ArgumentTypeError, a_callable, whole_number
+from .decks import DeckLike, deck_tree, plain
+
+CALL = "Study"
 
 log = logging.getLogger("peridyn.api")
 
@@ -54,6 +57,35 @@ def _plain(value: Any) -> Any:
     return value
 
 
+def check_parameters(parameters: Any) -> list[dict[str, Any]]:
+    """The parameter sets as plain dicts (numpy values as Python values, lists as a YAML deck
+    reads them); an ArgumentError for anything that is not a non-empty sequence of mappings of
+    deck paths to values a deck can hold."""
+    from ..deck.files import dump_yaml
+
+    if isinstance(parameters, (str, bytes, Mapping)) or not isinstance(parameters, Iterable):
+        raise ArgumentTypeError(f"parameters must be a list of mappings (one per run), not {type(parameters).__name__}",
+                                path=(CALL, "parameters"), fix="give [{'Materials/Glass/Density': 2440.0}, ...] or Study.grid(...)")
+    out = []
+    for k, params in enumerate(parameters):
+        if not isinstance(params, Mapping):
+            raise ArgumentTypeError(f"parameters[{k}] is a {type(params).__name__}, not a mapping deck path -> value",
+                                    path=(CALL, "parameters"), fix="give {'Section/Key': value}")
+        for path, value in params.items():
+            if not isinstance(path, str) or not [p for p in path.split("/") if p]:
+                raise ArgumentError(f"parameters[{k}]: {path!r} is not a deck path", path=(CALL, "parameters"),
+                                    fix="name a deck value by its keys joined by '/', e.g. 'Materials/Glass/Density'")
+            try:
+                dump_yaml({"v": plain(value)}, top_key=None)
+            except (ValueError, TypeError, RecursionError) as exc:
+                raise ArgumentError(f"parameters[{k}][{path!r}]: a deck cannot hold {value!r} ({exc})", path=(CALL, "parameters"),
+                                    fix="give a bool, int, float, str, a list of one kind of them, or a mapping") from None
+        out.append(plain(dict(params)))
+    if not out:
+        raise ArgumentError("a study needs at least one parameter set", path=(CALL, "parameters"), fix="give one mapping per run")
+    return out
+
+
 class Study:
     """Runs of one deck, each with some deck values changed.
 
@@ -67,13 +99,21 @@ class Study:
 
     def __init__(self, deck: DeckLike, parameters: Sequence[Mapping[str, Any]], folder: str | os.PathLike,
                  extract: Extract | None = None, *, directory: str | os.PathLike | None = None) -> None:
+        if not isinstance(deck, (Mapping, str, os.PathLike)):
+            raise ArgumentTypeError(f"deck must be a deck file name or a dict deck, not {type(deck).__name__}", path=(CALL, "deck"),
+                                    fix="give 'deck.yaml' or the deck's sections as a dict")
+        if not isinstance(folder, (str, os.PathLike)):
+            raise ArgumentTypeError(f"folder must be a folder name, not {type(folder).__name__}", path=(CALL, "folder"), fix="give a path")
+        if directory is not None and not isinstance(directory, (str, os.PathLike)):
+            raise ArgumentTypeError(f"directory must be a folder name, not {type(directory).__name__}", path=(CALL, "directory"),
+                                    fix="give a path, or None")
+        if extract is not None:
+            a_callable(CALL, "extract", extract, "extract(model) -> {name: value}")
         if not isinstance(deck, Mapping):
             directory = Path(deck).resolve().parent if directory is None else directory
         self.tree = deck_tree(deck)
         self.directory = Path(directory).resolve() if directory is not None else Path.cwd()
-        self.parameters = [_plain(dict(p)) for p in parameters]
-        if not self.parameters:
-            raise ValueError("a study needs at least one parameter set")
+        self.parameters = check_parameters(parameters)
         self.folder = Path(folder)
         self.extract = extract
 
@@ -82,6 +122,13 @@ class Study:
         """Every combination of the values given per deck path (keyword names cannot hold
         ``/``: pass ``Study.grid(**{"Materials/Glass/Density": [1, 2], ...})``)."""
         names = list(axes)
+        for name in names:
+            values = axes[name]
+            if isinstance(values, (str, bytes, Mapping)) or not isinstance(values, Iterable):
+                raise ArgumentTypeError(f"{name}: the values of an axis are a list, not {type(values).__name__} {values!r}",
+                                        path=("Study.grid", name), fix=f"give {name}=[value, ...] (a list of one value for a fixed one)")
+            if not list(values):
+                raise ArgumentError(f"{name}: an axis needs at least one value", path=("Study.grid", name), fix="give a non-empty list")
         return [dict(zip(names, combo)) for combo in itertools.product(*(list(axes[n]) for n in names))]
 
     def run_folder(self, k: int) -> Path:
@@ -111,6 +158,7 @@ class Study:
         table's rows. A run that fails is marked ``failed`` in its row (its error in
         ``status.json``) and the others go on; Ctrl-C stops the study, and the next ``run``
         picks up from the runs not done."""
+        processes = whole_number("Study.run", "processes", processes, 1)
         self.folder.mkdir(parents=True, exist_ok=True)
         todo = self.pending()
         log.info("study %s: %d run(s), %d to do", self.folder, len(self.parameters), len(todo))

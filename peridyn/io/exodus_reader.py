@@ -14,7 +14,66 @@ import numpy as np
 
 from ..core.errors import InputError
 
-__all__ = ["read_nodal_variable", "read_results"]
+__all__ = ["TENSOR_SUFFIXES", "combine_components", "component_groups", "read_nodal_variable", "read_results"]
+
+#: a full tensor's components as the writer names them (peridyn.core.fields.component_names)
+TENSOR_SUFFIXES = ("XX", "XY", "XZ", "YX", "YY", "YZ", "ZX", "ZY", "ZZ")
+#: a symmetric tensor written by its six components (other Exodus writers), the lower triangle by
+#: either of its names
+_SYMMETRIC = (("XX", "XX"), ("YY", "YY"), ("ZZ", "ZZ"), ("XY", "YX"), ("YZ", "ZY"), ("XZ", "ZX"))
+_VECTOR_SUFFIXES = ("X", "Y", "Z")
+
+
+def component_groups(names: list[str]) -> dict[str, tuple[str, list[str]]]:
+    """Variables written as components, by base name: ``base -> (kind, component names)``;
+    ``kind`` is ``"tensor"`` (``NameXX``, ``NameXY``, ... ``NameZZ``, row-major: the writer's
+    layout), ``"symmetric"`` (``NameXX``, ``NameYY``, ``NameZZ``, ``NameXY``, ``NameYZ``,
+    ``NameXZ`` or ``NameZX``, without the other off-diagonal ones) or ``"vector"`` (``NameX``,
+    ``NameY``, ``NameZ``). Tensors are found first, so ``StressXX`` is never the ``X`` of a
+    vector ``StressX``; the names of a group are given in the order :func:`combine_components`
+    reads them."""
+    have = set(names)
+    taken: set[str] = set()
+    groups: dict[str, tuple[str, list[str]]] = {}
+    for name in names:
+        if not name.endswith("XX") or name in taken:
+            continue
+        base = name[:-2]
+        full = [base + c for c in TENSOR_SUFFIXES]
+        if all(f in have for f in full):
+            groups[base] = ("tensor", full)
+            taken.update(full)
+            continue
+        symmetric = []
+        for first, second in _SYMMETRIC:
+            pick = base + first if base + first in have else base + second if base + second in have else None
+            if pick is None:
+                break
+            symmetric.append(pick)
+        if len(symmetric) == 6:
+            groups[base] = ("symmetric", symmetric)
+            taken.update(symmetric)
+    for name in names:
+        if name.endswith("X") and name not in taken:
+            base = name[:-1]
+            vec = [base + c for c in _VECTOR_SUFFIXES]
+            if all(v in have and v not in taken for v in vec):
+                groups[base] = ("vector", vec)
+                taken.update(vec)
+    return groups
+
+
+def combine_components(table: dict[str, np.ndarray], kind: str, names: list[str]) -> np.ndarray:
+    """The components ``names`` of ``table`` (each (...,)) as one array: (..., 3) for a vector,
+    (..., 3, 3) for a tensor (a symmetric one mirrored)."""
+    parts = [np.asarray(table[n], dtype=np.float64) for n in names]
+    if kind == "vector":
+        return np.stack(parts, axis=-1)
+    if kind == "tensor":
+        return np.stack(parts, axis=-1).reshape(parts[0].shape + (3, 3))
+    xx, yy, zz, xy, yz, xz = parts
+    rows = [[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]]
+    return np.stack([np.stack(r, axis=-1) for r in rows], axis=-2)
 
 
 def _names(ds: netCDF4.Dataset, var: str) -> list[str]:

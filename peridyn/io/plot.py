@@ -1,7 +1,11 @@
 """``peridyn plot RESULT.e``: pictures of a result file with matplotlib (the ``plot`` extra).
 
-* the histories: energies and momenta the run wrote as global outputs, and the damage (share of
-  points with any damage, mean damage) of every frame that holds a ``Damage`` field;
+* the histories: energies and momenta the run wrote as global outputs, each labelled by what it
+  is (Peridigm's ``Global_Linear_Momentum`` is the sum over blocks of each block's momentum
+  magnitude, the magnitude of the total only for one block); where the file holds the per-point
+  ``Linear_Momentum`` or ``Angular_Momentum``, the components and magnitude of their total too;
+  a global vector as its components and magnitude; the damage (share of points with any damage,
+  mean damage over points) of every frame that holds a ``Damage`` field;
 * frames: the points at their deformed positions (reference coordinates plus ``Displacement``
   when written), coloured by a field (``Damage``, a vector's magnitude, one component),
   projected on a coordinate plane, the nearest points drawn last.
@@ -14,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from ..core.errors import InputError
+from .exodus_reader import component_groups
 
 INSTALL = 'pip install "peridyn[plot]"'
 VIEWS = {"xy": (0, 1, 2), "xz": (0, 2, 1), "yz": (1, 2, 0)}
@@ -52,11 +57,17 @@ def read(path: str | Path) -> dict[str, Any]:
     return r
 
 
+def _vectors(table: dict[str, np.ndarray]) -> dict[str, list[str]]:
+    """base -> component names of the vectors of ``table`` (tensor components are not vectors:
+    ``StressXX``, ``StressXY``, ``StressXZ`` is no vector ``StressX``)."""
+    return {base: names for base, (kind, names) in component_groups(list(table)).items() if kind == "vector"}
+
+
 def field_names(r: dict[str, Any]) -> list[str]:
-    """What a frame can be coloured by: nodal and element fields, and each vector (``Velocity``
-    for VelocityX, Y, Z) as its magnitude."""
+    """What a frame can be coloured by: nodal and element fields (tensors by their components),
+    and each vector (``Velocity`` for VelocityX, Y, Z) as its magnitude."""
     names = list(r["nodal"]) + list(r["element"])
-    vectors = [n[:-1] for n in names if n.endswith("X") and all(n[:-1] + c in names for c in "YZ")]
+    vectors = [v for table in (r["nodal"], r["element"]) for v in _vectors(table)]
     return vectors + names
 
 
@@ -65,8 +76,9 @@ def field_values(r: dict[str, Any], name: str, frame: int) -> np.ndarray:
     for table in (r["nodal"], r["element"]):
         if name in table:
             return np.asarray(table[name][frame], dtype=float)
-        if all(name + c in table for c in "XYZ"):
-            return np.linalg.norm(np.stack([np.asarray(table[name + c][frame], float) for c in "XYZ"], axis=1), axis=1)
+        vectors = _vectors(table)
+        if name in vectors:
+            return np.linalg.norm(np.stack([np.asarray(table[c][frame], float) for c in vectors[name]], axis=1), axis=1)
     raise KeyError(name)
 
 
@@ -78,17 +90,67 @@ def positions(r: dict[str, Any], frame: int) -> np.ndarray:
     return x
 
 
+#: Peridigm's global momenta: the sum over blocks of |the block's summed vector| (computes/kinematics.py)
+BLOCK_MAGNITUDES = {"Global_Linear_Momentum": ("linear momentum", "p", "Linear_Momentum"),
+                    "Global_Angular_Momentum": ("angular momentum", "L", "Angular_Momentum")}
+
+
+def _panel(name: str) -> str:
+    if "Energy" in name:
+        return "energy"
+    if "Angular_Momentum" in name:
+        return "angular momentum"
+    if "Momentum" in name:
+        return "linear momentum"
+    return "other global outputs"
+
+
 def histories(r: dict[str, Any]) -> dict[str, dict[str, np.ndarray]]:
-    """Panel title -> {curve label -> (nt,) values}: energies, momenta, damage."""
+    """Panel title -> {curve label -> (nt,) values}: energies, momenta, damage, each labelled by
+    what it is. ``Global_Linear_Momentum`` (and the angular one) is Peridigm's sum over blocks of
+    each block's momentum magnitude: labelled so (as |total p| for one block); when the file
+    holds the per-point ``Linear_Momentum`` (``Angular_Momentum``) vectors, their total's
+    components and magnitude are drawn beside it. A global vector (``NameX``, ``NameY``,
+    ``NameZ``) is drawn as its components and its magnitude."""
     panels: dict[str, dict[str, np.ndarray]] = {}
-    for name, values in r["global"].items():
-        panel = "energy" if "Energy" in name else "momentum" if "Momentum" in name else "other global outputs"
-        panels.setdefault(panel, {})[name] = np.asarray(values, float)
+    glob = r["global"]
+    groups = component_groups(list(glob))
+    grouped = {c for _, names in groups.values() for c in names}
+    num_blocks = len(r.get("blocks", ())) or 1
+    for name, values in glob.items():
+        if name in grouped:
+            continue
+        label = name
+        if name in BLOCK_MAGNITUDES:
+            _, sym, _ = BLOCK_MAGNITUDES[name]
+            label = (f"{name}: |total {sym}| (one block)" if num_blocks == 1 else
+                     f"{name}: sum over the {num_blocks} blocks of |{sym}_block| (not |total {sym}|)")
+        panels.setdefault(_panel(name), {})[label] = np.asarray(values, float)
+    for base, (kind, names) in groups.items():
+        curves = panels.setdefault(_panel(base), {})
+        parts = [np.asarray(glob[c], float) for c in names]
+        for c, values in zip(names, parts):
+            curves[c] = values
+        if kind == "vector":
+            curves[f"|{base}| (magnitude of the vector)"] = np.linalg.norm(np.stack(parts, axis=1), axis=1)
+    for what, sym, field in BLOCK_MAGNITUDES.values():
+        for table in (r["nodal"], r["element"]):
+            comps = _vectors(table).get(field)
+            if comps is None:
+                continue
+            with np.errstate(invalid="ignore"):
+                total = np.stack([np.nansum(np.asarray(table[c], float), axis=1) for c in comps], axis=1)
+            curves = panels.setdefault(what, {})
+            for k, axis in enumerate("xyz"):
+                curves[f"total {sym}_{axis} (sum of {field} over points)"] = total[:, k]
+            curves[f"|total {sym}| (magnitude of the sum)"] = np.linalg.norm(total, axis=1)
+            break
     damage = r["element"].get("Damage", r["nodal"].get("Damage"))
     if damage is not None:
         d = np.asarray(damage, float)
         with np.errstate(invalid="ignore"):
-            panels["damage"] = {"points with damage (share)": np.nanmean(d > 0.0, axis=1), "mean damage": np.nanmean(d, axis=1)}
+            panels["damage"] = {"points with damage (share)": np.nanmean(np.where(np.isnan(d), np.nan, d > 0.0), axis=1),
+                                "mean damage over points (not volume-weighted)": np.nanmean(d, axis=1)}
     return panels
 
 

@@ -22,9 +22,13 @@ def load(name: str):
 def test_api_quickstart_plate_cracks_in_the_middle(tmp_path, capsys) -> None:
     out = load("api_quickstart").main(tmp_path, small=True)
     x, damage = out["x"], out["damage"]
-    ends = (x < 0.0035) | (x > 0.0565)
+    left, right = out["grips"]
+    assert np.unique(x[left]).size == np.unique(x[right]).size == 2  # two columns each at --small (three at full size)
+    assert np.allclose(np.sort(x[left]), np.sort(0.060 - x[right]), atol=1e-12)  # mirror images
+    ends = left | right
     assert damage[~ends].max() > 0.5  # a crack
-    assert np.all(np.abs(x[(damage > 0.3) & ~ends] - 0.030) < 0.008)  # across the middle, where the pull waves meet
+    crack = x[(damage > 0.3) & ~ends]
+    assert np.all(np.abs(crack - 0.030) < 0.008)  # across the middle, where the pull waves meet
     times, growth = out["history"]
     assert growth[0] == 0.0 and np.all(np.diff(growth) >= 0)  # damage only grows
     result = out["result"]

@@ -244,3 +244,82 @@ def test_a_region_node_set_drives_a_condition(tmp_path):
     sim = Simulation(load_deck(deck_with(tmp_path, region)), output_dir=tmp_path, progress=False)
     x, v = sim.fields["Model_Coordinates"][: sim.num_owned], sim.fields["Velocity"][: sim.num_owned, 0]
     np.testing.assert_array_equal(v == 1.0, x[:, 0] > 0.7)  # the plane x = 0.75 on the half-space's plane is in (inclusive)
+
+
+# -- round-off in the coordinates: mirrored regions select mirrored points ---------------------
+from decimal import Decimal  # noqa: E402
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+from peridyn.geometry.regions import TOLERANCE, decimal_snap  # noqa: E402
+
+
+def rounded_lattice(origin: float, dx: float, n: int):
+    """n x 2 x 2 points at origin + dx/2 + i dx, as a mesh generator computes them (round-off)."""
+    g = origin + dx / 2.0 + np.arange(n) * dx
+    x = np.stack(np.meshgrid(g, [0.0, dx], [0.0, dx], indexing="ij"), axis=-1).reshape(-1, 3)
+    return x, np.full(len(x), dx**3)
+
+
+def mirrored_pairs(lo: str, hi: str, k: int, dx: str):
+    """Region pairs selecting the first k (and a half) planes at each end of [lo, hi], mirror
+    images of each other; the constants written as decimals, as a deck writes them."""
+    a = Decimal(lo) + (Decimal(k) + Decimal("0.5")) * Decimal(dx)  # a lattice plane
+    b = Decimal(hi) - (Decimal(k) + Decimal("0.5")) * Decimal(dx)
+    m = Decimal(lo) + (Decimal(k) + 1) * Decimal(dx)  # half way between planes
+    n = Decimal(hi) - (Decimal(k) + 1) * Decimal(dx)
+    fa, fb = float(a), float(b)
+    return [
+        ({"Half Space": {"Point": [fa, 0, 0], "Normal": [-1, 0, 0]}}, {"Half Space": {"Point": [fb, 0, 0], "Normal": [1, 0, 0]}}),
+        ({"Box": {"Min": [float(lo) - 1, -1, -1], "Max": [fa, 1, 1]}}, {"Box": {"Min": [fb, -1, -1], "Max": [float(hi) + 1, 1, 1]}}),
+        ({"Cylinder": {"Center": [0, 0, 0], "Axis": "x", "Radius": 10, "Max": fa}},
+         {"Cylinder": {"Center": [0, 0, 0], "Axis": "x", "Radius": 10, "Min": fb}}),
+        ({"Expression": f"x <= {a}"}, {"Expression": f"x >= {b}"}),
+        ({"Expression": f"x < {a}"}, {"Expression": f"x > {b}"}),
+        ({"Expression": f"x < {m}"}, {"Expression": f"x > {n}"}),
+        ({"Expression": f"!(x > {a})"}, {"Expression": f"!(x < {b})"}),
+        ({"Expression": f"fabs(x - {a}) <= 0"}, {"Expression": f"fabs(x - {b}) == 0"}),
+    ]
+
+
+@settings(max_examples=80, deadline=None)
+@given(origin=st.integers(-5000, 5000), step=st.integers(1, 999), exponent=st.integers(0, 6), n=st.integers(4, 40),
+       k=st.integers(0, 3))
+def test_mirrored_regions_select_mirrored_points_on_lattices_with_round_off(origin, step, exponent, n, k):
+    scale = Decimal(10) ** -exponent
+    lo, dx = Decimal(origin) * scale, Decimal(step) * scale
+    hi = lo + n * dx
+    x, v = rounded_lattice(float(lo), float(dx), n)
+    for left, right in mirrored_pairs(str(lo), str(hi), min(k, n // 2 - 1), str(dx)):
+        a, b = mask(left, x, v), mask(right, x, v)
+        assert a.sum() == b.sum(), (left, right)
+        from_left = np.sort(np.round(2 * (x[a, 0] - float(lo)) / float(dx)))  # half spacings from each end
+        from_right = np.sort(np.round(2 * (float(hi) - x[b, 0]) / float(dx)))
+        assert np.array_equal(from_left, from_right), (left, right)
+
+
+def test_the_quickstart_grips_are_three_columns_each_whatever_the_comparison():
+    x, v = rounded_lattice(0.0, 0.001, 60)
+    assert x[:, 0].max() > 0 and repr(np.unique(x[:, 0])[56]) != "0.0565"  # the column stored with round-off
+    cols = lambda spec: np.unique(x[mask(spec, x, v), 0]).size  # noqa: E731
+    assert cols({"Expression": "x < 0.0035"}) == cols({"Expression": "x > 0.0565"}) == 3
+    assert cols({"Expression": "x <= 0.0035"}) == cols({"Expression": "x >= 0.0565"}) == 4
+    assert cols({"Half Space": {"Point": [0.003, 0, 0], "Normal": [-1, 0, 0]}}) == 3
+    assert cols({"Half Space": {"Point": [0.057, 0, 0], "Normal": [1, 0, 0]}}) == 3
+
+
+@settings(max_examples=200, deadline=None)
+@given(x=st.floats(-1e6, 1e6), h=st.floats(1e-9, 1e3))
+def test_decimal_snap_moves_a_coordinate_by_at_most_half_the_tolerance(x, h):
+    tol = np.array([TOLERANCE * h])
+    snapped = decimal_snap(np.array([[x, -x, 0.0]]), tol)[0]
+    assert abs(snapped[0] - x) <= 0.5 * tol[0] * (1 + 1e-9) + 4 * np.spacing(abs(x))
+    assert snapped[1] == -snapped[0] and snapped[2] == 0.0  # mirror images stay mirror images
+
+
+def test_a_point_a_visible_fraction_of_a_spacing_off_a_face_is_outside():
+    x, v = rounded_lattice(0.0, 0.001, 10)
+    x[:, 0] += 0.01 * 0.001  # every point 1 % of a spacing to the right
+    for spec in ({"Expression": "x <= 0.0025"}, {"Half Space": {"Point": [0.0025, 0, 0], "Normal": [-1, 0, 0]}}):
+        assert np.unique(x[mask(spec, x, v), 0]).size == 2

@@ -37,7 +37,8 @@ def result(tmp_path_factory):
 def test_histories_and_fields_come_from_the_file(result):
     r = read_results(result)
     panels = histories(r)
-    assert set(panels) >= {"energy", "momentum", "damage"}
+    assert set(panels) >= {"energy", "linear momentum", "damage"}
+    assert list(panels["linear momentum"]) == ["Global_Linear_Momentum: |total p| (one block)"]
     share = panels["damage"]["points with damage (share)"]
     assert share[0] == 0.0 and share[-1] > 0.0  # the plate starts whole and breaks
     assert "Velocity" in field_names(r) and "Damage" in field_names(r)
@@ -83,3 +84,58 @@ def test_without_matplotlib_it_says_how_to_install(result, monkeypatch, capsys):
     monkeypatch.setitem(sys.modules, "matplotlib", None)
     assert main(["plot", str(result)]) == ExitCode.INPUT_ERROR
     assert 'pip install "peridyn[plot]"' in capsys.readouterr().err
+
+
+def synthetic(blocks: int, **tables) -> dict:
+    """A read_results-like dict: 4 frames, 3 points."""
+    base = {"times": np.arange(4.0), "coords": np.zeros((3, 3)), "blocks": [{"id": k + 1} for k in range(blocks)],
+            "global": {}, "nodal": {}, "element": {}}
+    for key, table in tables.items():
+        base[key] = table
+    return base
+
+
+def test_peridigms_global_momentum_is_labelled_as_a_sum_of_block_magnitudes():
+    r = synthetic(2, **{"global": {"Global_Linear_Momentum": np.array([1.0, 1.2, 1.5, 1.7]),
+                                   "Global_Angular_Momentum": np.ones(4)}})
+    panels = histories(r)
+    (label,) = panels["linear momentum"]
+    assert "sum over the 2 blocks of |p_block|" in label and "not |total p|" in label
+    (label,) = panels["angular momentum"]
+    assert "sum over the 2 blocks of |L_block|" in label
+    (label,) = histories(synthetic(1, **{"global": {"Global_Linear_Momentum": np.ones(4)}}))["linear momentum"]
+    assert "|total p| (one block)" in label
+
+
+def test_the_total_momentum_comes_from_the_per_point_vectors_when_written():
+    rng = np.random.default_rng(3)
+    p = rng.normal(size=(4, 3, 3))  # frames, points, xyz
+    p[:, 2] = -p[:, 0] - p[:, 1]  # two bodies pushing each other: the total is zero
+    nodal = {f"Linear_Momentum{c}": p[:, :, k] for k, c in enumerate("XYZ")}
+    r = synthetic(2, nodal=nodal, **{"global": {"Global_Linear_Momentum": np.linalg.norm(p[:, :2].sum(1), axis=1) + 1.0}})
+    curves = histories(r)["linear momentum"]
+    total = curves["|total p| (magnitude of the sum)"]
+    assert np.allclose(total, 0.0, atol=1e-12)  # conserved, whatever the sum of block magnitudes does
+    for k, axis in enumerate("xyz"):
+        assert np.allclose(curves[f"total p_{axis} (sum of Linear_Momentum over points)"], p[:, :, k].sum(axis=1))
+
+
+def test_a_global_vector_is_drawn_as_its_components_and_magnitude_and_tensors_are_not_vectors():
+    g = {"Reaction_SumX": np.full(4, 3.0), "Reaction_SumY": np.full(4, 4.0), "Reaction_SumZ": np.zeros(4),
+         "Global_Kinetic_Energy": np.ones(4)}
+    stress = {f"Cauchy_Stress{s}": np.ones((4, 3)) for s in ("XX", "XY", "XZ", "YX", "YY", "YZ", "ZX", "ZY", "ZZ")}
+    r = synthetic(1, element=stress, **{"global": g})
+    panels = histories(r)
+    assert np.allclose(panels["other global outputs"]["|Reaction_Sum| (magnitude of the vector)"], 5.0)
+    assert set(panels["energy"]) == {"Global_Kinetic_Energy"}
+    names = field_names(r)
+    assert "Cauchy_StressX" not in names and "Cauchy_StressXY" in names
+    with pytest.raises(KeyError):
+        field_values(r, "Cauchy_StressX", 0)
+
+
+def test_the_damage_share_counts_only_points_that_carry_damage():
+    d = np.array([[0.0, 0.5, np.nan]] * 4)
+    curves = histories(synthetic(1, element={"Damage": d}))["damage"]
+    assert np.allclose(curves["points with damage (share)"], 0.5)
+    assert np.allclose(curves["mean damage over points (not volume-weighted)"], 0.25)
