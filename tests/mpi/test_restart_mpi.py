@@ -69,6 +69,7 @@ def test_sigterm_to_mpiexec_stops_both_ranks_at_one_checkpoint_and_the_restart_c
         pytest.skip("the run ended before the signal came")
     assert proc.returncode == 143, err[-3000:]
     assert "stopped by SIGTERM after" in err  # after a step, or after the section if it came in its last 16 steps
+    assert "continue with 'mpiexec -n 2 peridyn run flyby.yaml --restart'" in err, err[-3000:]
     (pos, _), *_ = checkpoints_of(tmp_path / "restart", "flyby")[-1:]
     assert pos[1] % 16 == 0  # the ranks agree on a signal every 16 steps
     assert read_results(tmp_path / "flyby.partial.e")["times"].size >= 1
@@ -108,3 +109,50 @@ def test_a_checkpoint_continues_on_another_number_of_ranks(tmp_path, before, aft
         assert a[k].shape == b[k].shape, k
         scale = max(float(np.abs(a[k]).max()), 1e-300)
         assert np.allclose(a[k], b[k], rtol=0.0, atol=1e-12 * scale), k
+
+
+def _one_error_line(proc) -> str:
+    assert proc.returncode == 2, proc.stderr[-3000:]
+    lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "Traceback" not in proc.stderr, proc.stderr[-3000:]
+    return lines[0]
+
+
+@pytest.mark.parametrize("corrupt", ["flip", "truncate", "rank 1's ghost rows", "wrong dtype"])
+def test_a_bad_checkpoint_is_one_line_exit_2_on_two_ranks(whole, tmp_path, corrupt):
+    """Every rank reaches the same verdict before the restore (whose contact rebuild is
+    collective): one line, exit 2, no hang, also when only rank 1's rows are wrong."""
+    import zipfile
+
+    out = tmp_path / "run"
+    _deck(out, **LONG)
+    (out / "flyby.e").write_bytes((whole / "flyby.e").read_bytes())
+    src = checkpoints_of(whole / "restart", "flyby")[0][1]
+    bad = out / "bad.npz"
+    with np.load(src) as data:
+        arrays = {k: data[k] for k in data.files}
+    if corrupt == "flip":
+        raw = bytearray(src.read_bytes())
+        with zipfile.ZipFile(src) as z:
+            start = z.getinfo("np1/Velocity.npy").header_offset
+        for k in range(8):
+            raw[start + 300 + 16 * k] ^= 0xFF
+        bad.write_bytes(bytes(raw))
+    elif corrupt == "truncate":
+        bad.write_bytes(src.read_bytes()[:1000])
+    elif corrupt == "rank 1's ghost rows":
+        np.savez(bad, **{k: v for k, v in arrays.items() if k != "r1/acceleration"})
+    else:
+        np.savez(bad, **{**arrays, "np1/Velocity": arrays["np1/Velocity"].astype(np.float32)})
+    before = (out / "flyby.e").read_bytes()
+    line = _one_error_line(mpirun(2, ["run", "flyby.yaml", "-q", "--restart", "bad.npz"], cwd=out))
+    assert line.startswith("error: bad.npz: --restart: "), line
+    assert (out / "flyby.e").read_bytes() == before and not (out / "flyby.partial.e").exists()
+
+
+def test_a_folder_where_the_output_goes_is_one_line_exit_2_on_two_ranks(tmp_path):
+    _deck(tmp_path)
+    (tmp_path / "flyby.partial.e").mkdir()
+    line = _one_error_line(mpirun(2, ["run", "flyby.yaml", "-q"], cwd=tmp_path))
+    assert "flyby.partial.e" in line and "is a folder" in line, line
+    assert not (tmp_path / "restart").exists()

@@ -5,6 +5,7 @@ import json
 import os
 import random
 import re
+import shlex
 import shutil
 import signal
 import subprocess
@@ -174,7 +175,9 @@ def test_a_signal_writes_a_checkpoint_at_the_step_end_and_exits_128_plus_it(unin
     assert checkpoints_of(tmp_path / "restart", "flyby")[-1][0] == (0, int(m[1]))  # written at the step the signal stopped
     partial = read_results(tmp_path / "flyby.partial.e")  # readable, frames so far
     assert 0 < partial["times"].size < 122
-    assert run(deck, tmp_path, "--restart") == ExitCode.OK
+    command = re.search(r"continue with '(.+)'", err)[1]  # the command the message gives, run as given
+    assert command == f"peridyn run {deck} --output-dir {tmp_path} --restart", err
+    assert main(shlex.split(command)[1:] + ["-q", "--no-progress"]) == ExitCode.OK
     assert_same_file(uninterrupted_long / "flyby.e", tmp_path / "flyby.e")
 
 
