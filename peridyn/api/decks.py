@@ -6,7 +6,6 @@ deck loader, so a dict is typed and validated exactly as the same deck in a file
 """
 from __future__ import annotations
 
-import numbers
 import os
 from collections.abc import Mapping
 from dataclasses import replace
@@ -20,6 +19,7 @@ from ..core.errors import InputError
 from ..core.interfaces import DiscretizationReader
 from ..core.params import ModelParams
 from ..deck.model import Deck, load_deck, parse_deck
+from .checks import plain
 
 #: what ``Model`` and ``Study`` accept as a deck
 DeckLike = Union[str, "os.PathLike[str]", Mapping, Deck]
@@ -40,27 +40,6 @@ def deck_tree(deck: str | os.PathLike | Mapping) -> dict:
     from ..deck.files import load_deck_file
 
     return load_deck_file(deck).tree
-
-
-def plain(value: Any) -> Any:
-    """A copy of ``value`` with numpy scalars and arrays as plain Python values, and lists read as
-    the same list in a YAML deck is: ints among floats become floats (``[0.002, 0, 0]``), numbers
-    among strings become strings. Bools, None and other objects are left for the deck's checks."""
-    if isinstance(value, Mapping):
-        return {str(k): plain(v) for k, v in value.items()}
-    if isinstance(value, np.ndarray):
-        return plain(value.tolist())
-    if isinstance(value, (list, tuple)):
-        items = [plain(v) for v in value]
-        numbers_only = all(isinstance(v, numbers.Real) and not isinstance(v, bool) for v in items)
-        if numbers_only and any(isinstance(v, float) for v in items):
-            return [float(v) for v in items]
-        if any(isinstance(v, str) for v in items) and all(isinstance(v, (str, numbers.Real)) and not isinstance(v, bool) for v in items):
-            return [v if isinstance(v, str) else repr(float(v)) if isinstance(v, float) else str(v) for v in items]
-        return items
-    if isinstance(value, np.generic):
-        return value.item()
-    return value
 
 
 def parse_tree(tree: Mapping, directory: str | os.PathLike | None = None) -> Deck:

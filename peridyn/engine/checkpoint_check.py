@@ -21,6 +21,9 @@ import numpy as np
 from ..core.errors import InputError
 from ..core.fields import Relation, Temporal
 
+#: version of the checkpoint layout
+FORMAT = 1
+
 T = TypeVar("T")
 
 #: what a refused checkpoint can do instead
@@ -110,8 +113,6 @@ def _number(value: Any) -> bool:
 
 def _check_meta(path: Path, meta: dict) -> None:
     """Every metadata entry a restart reads, with its type and range."""
-    from .restart import FORMAT
-
     def need(ok: bool, what: str) -> None:
         if not ok:
             raise refusal(path, f"its metadata has {what}")
@@ -243,12 +244,10 @@ def check_checkpoint(sim, path: Path, meta: dict, arrays: dict[str, np.ndarray],
 def _check_bond_keys(sim, path: Path, saved: np.ndarray) -> None:
     """The checkpoint's bond keys: sorted, distinct, of this model's points, and every bond of
     this rank among them."""
-    from .restart import _bond_keys
-
     total = np.int64(sim.num_global)
     if saved.size and (saved[0] < 0 or saved[-1] >= total * total or (saved.size > 1 and not (np.diff(saved) > 0).all())):
         raise refusal(path, "its bond keys are not sorted keys of this model's points")
-    keys = _bond_keys(sim)
+    keys = bond_keys(sim)
     idx = np.searchsorted(saved, keys)
     if not (idx < saved.size).all() or not np.array_equal(saved[idx], keys):
         raise refusal(path, "its bonds are not this model's", "restart with the deck and mesh that wrote it")
@@ -295,3 +294,14 @@ def _output_mismatch(w, source: Path, frames: int, num_nodes: int) -> str | None
     except Exception as exc:  # not netCDF, torn, another program's file
         return f"not a readable Exodus file ({str(exc)[:80] or type(exc).__name__})"
     return None
+
+
+def bond_keys(sim) -> np.ndarray:
+    """(num_bonds,) int64 key i * num_global + j of every bond of this rank, i and j mothership
+    indices (ghosts own no bonds)."""
+    nl = sim.bonds
+    n = sim.num_owned
+    counts = np.diff(nl.offsets[: n + 1])
+    rows = np.repeat(np.arange(n, dtype=np.int64), counts)
+    m = sim.mothership_of_local.astype(np.int64)
+    return m[rows] * np.int64(sim.num_global) + m[nl.neighbors[: nl.offsets[n]].astype(np.int64)]

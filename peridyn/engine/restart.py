@@ -40,11 +40,10 @@ import numpy as np
 
 from ..core.errors import InputError, OutputWriteError, PeridynError
 from ..core.fields import Relation, Temporal
+from .checkpoint_check import FORMAT, bond_keys as _bond_keys
 
 log = logging.getLogger("peridyn.restart")
 
-#: version of the checkpoint layout
-FORMAT = 1
 #: under MPI the ranks agree on a pending signal every this many steps (a reduction)
 SIGNAL_CHECK_EVERY = 16
 #: monitor attributes rebuilt from the model at a restart, not stored
@@ -551,17 +550,6 @@ def _write_atomic(path: Path, meta: dict, arrays: dict[str, np.ndarray]) -> None
         os.fsync(dfd)
     finally:
         os.close(dfd)
-
-
-def _bond_keys(sim) -> np.ndarray:
-    """(num_bonds,) int64 key i * num_global + j of every bond of this rank, i and j mothership
-    indices (ghosts own no bonds)."""
-    nl = sim.bonds
-    n = sim.num_owned
-    counts = np.diff(nl.offsets[: n + 1])
-    rows = np.repeat(np.arange(n, dtype=np.int64), counts)
-    m = sim.mothership_of_local.astype(np.int64)
-    return m[rows] * np.int64(sim.num_global) + m[nl.neighbors[: nl.offsets[n]].astype(np.int64)]
 
 
 def _bond_index(sim, saved_keys: np.ndarray) -> np.ndarray:
