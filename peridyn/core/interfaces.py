@@ -141,6 +141,10 @@ class ElasticModuli:
         return 9.0 * K * mu / (3.0 * K + mu), (3.0 * K - 2.0 * mu) / (2.0 * (3.0 * K + mu))
 
 
+#: the largest bond strain of the linear (small-strain) laws' range (``Material.small_strain_limit``)
+SMALL_STRAIN = 0.1
+
+
 class Material(ABC):
     """A constitutive model for the bonds of one block.
 
@@ -206,6 +210,11 @@ class Material(ABC):
     #: explicit step calls (``precompute``, ``force_fused``, ``stored_energy_density``) passes
     #: only its view's arrays to compiled loop laws, so the GPU backend runs them on device arrays
     devices: ClassVar[frozenset[str]] = frozenset({"cpu"})
+    #: the range of the law (peridyn.solvers.model_range warns once when a run leaves it): the
+    #: largest strain of an intact bond, and the largest rotation of a family (radians) for a
+    #: law whose strain is not rotation invariant; None: no limit (nonlinear, finite-strain laws)
+    small_strain_limit: ClassVar[float | None] = None
+    small_rotation_limit: ClassVar[float | None] = None
 
     def __init__(self, params: ModelParams, *, horizon: float | None, options: dict[str, Any] | None = None) -> None:
         self.params = params
@@ -461,6 +470,9 @@ class Simulation(Protocol):
 
     def stored_energy(self) -> float:
         """Stored elastic energy, sum of W_i V_i over owned points and ranks."""
+
+    def unit_slip_hint(self) -> str:
+        """The model's likely unit slip as a clause for a message ("" when none; collective)."""
 
     def require(self, spec: FieldSpec) -> np.ndarray:
         """The field of ``spec``, allocated on first request (late declarations of computes)."""

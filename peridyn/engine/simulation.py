@@ -688,6 +688,12 @@ class Simulation:
         m = self.fields["Volume"][: self.num_owned] * self.density_per_point()[: self.num_owned]
         return self.comm.allreduce_sum(0.5 * float(np.dot(m, np.einsum("ij,ij->i", v, v))))
 
+    def unit_slip_hint(self) -> str:
+        """The likely unit slip of the model ("" when none): :func:`plausibility.unit_slip_hint`."""
+        from .plausibility import unit_slip_hint
+
+        return unit_slip_hint(self)
+
     def stored_energy(self) -> float:
         """Total stored elastic energy (sum of W_i V_i over owned points)."""
         W = np.zeros(self.num_local)

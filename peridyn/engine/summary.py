@@ -46,6 +46,9 @@ def log_summary(sim, wall: float) -> None:
                 100 * abs(e["balance_error"]) / scale,
                 100 * e["max_relative_error"],
             )
+            if e.get("created", 0.0) > 0.0:
+                log.warning("  energy: NOT balanced: the stored energy is negative, %.6g created by the materials (see the "
+                            "warning above)", e["created"])
         if st.get("device") == "gpu":
             log.info("  device: gpu, fields and bonds %.0f bytes per point on the device, copied there in %.2f s",
                      st["device_bytes_per_point"], st["device_setup"])

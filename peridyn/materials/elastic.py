@@ -26,7 +26,7 @@ from pydantic import Field
 from ..core.bondmath import stretch_exceeds
 from ..core.fields import FieldSpec, Relation, Temporal
 from ..core.influence import omega
-from ..core.interfaces import BlockView, ElasticModuli, Material
+from ..core.interfaces import SMALL_STRAIN, BlockView, ElasticModuli, Material
 from ..core.params import UsedWhen
 from ..core.traversal import BondMap, PairForce, PointMap, PointSum
 from ..kernels import compiled, empty, on_host, resident
@@ -341,6 +341,7 @@ def pack_force_points_kernel(lo1, hi1, lo2, hi2, y, volume, m, theta, K, mu, P):
 # ------------------------------------------------------------------------------------------------
 class Elastic(Material):
     """Linear peridynamic solid (Peridigm's ``Elastic``)."""
+    small_strain_limit = SMALL_STRAIN  # a linear law
 
     name = "Elastic"
     analytic_tangent = True

@@ -20,7 +20,7 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from ..core.fields import FieldSpec
-from ..core.interfaces import BlockView, ElasticModuli, Material
+from ..core.interfaces import SMALL_STRAIN, BlockView, ElasticModuli, Material
 from ..core.params import ModelParams, UsedWhen
 from ..core.traversal import BondMap, PairForce, PointSum
 from ..kernels import compiled, empty
@@ -107,6 +107,7 @@ STORED_ENERGY = PointSum(stored_energy_term, finish=quarter)
 
 class ElasticBondBased(Material):
     """Prototype microelastic brittle (bond-based) material."""
+    small_strain_limit = SMALL_STRAIN  # a linear law
 
     name = "Elastic Bond Based"
     analytic_tangent = True

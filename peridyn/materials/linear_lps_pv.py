@@ -36,7 +36,7 @@ from pydantic import Field, model_validator
 from ..core.errors import InputError
 from ..core.fields import FieldSpec, Relation, Temporal
 from ..core.influence import ONE, omega
-from ..core.interfaces import BlockView, ElasticModuli, Material
+from ..core.interfaces import SMALL_STRAIN, BlockView, ElasticModuli, Material
 from ..core.params import UsedWhen
 from ..core.traversal import BondMap, PointSum
 from ..kernels import compiled
@@ -275,6 +275,7 @@ STORED_ENERGY_PARTIAL = PointSum(stored_energy_partial_term, point=energy_point,
 # ------------------------------------------------------------------------------------------------
 class LinearLPSPartialVolume(Material):
     """Linearised LPS with optional partial volumes (Peridigm's ``Linear LPS Partial Volume``)."""
+    small_strain_limit = SMALL_STRAIN  # a linear law
 
     name = "Linear LPS Partial Volume"
     Params = LinearLPSPVParams

@@ -34,7 +34,7 @@ from pydantic import Field, field_validator
 from ..core.errors import InputError
 from ..core.fields import FieldSpec, Relation
 from ..core.influence import ONE, omega
-from ..core.interfaces import BlockView, ElasticModuli, Material
+from ..core.interfaces import SMALL_STRAIN, BlockView, ElasticModuli, Material
 from ..core.traversal import BondMap, PointSum
 from ..kernels.lengths import compiled_with_lengths
 from .elastic import DILATATION, EMPTY, WEIGHTED_VOLUME, dilatation_finish
@@ -246,6 +246,7 @@ COUPLED_STORED_ENERGY = PointSum(coupled_energy_term, point=coupled_energy_point
 # ------------------------------------------------------------------------------------------------
 class MultiphysicsElastic(Material):
     """Peridigm's ``Multiphysics Elastic`` (LPS solid + nonlocal Darcy-like flow)."""
+    small_strain_limit = SMALL_STRAIN  # a linear law
 
     name = "Multiphysics Elastic"
     Params = MultiphysicsElasticParams

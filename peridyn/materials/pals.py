@@ -35,7 +35,7 @@ from pydantic import Field, field_validator
 from ..core.errors import InputError
 from ..core.fields import FieldSpec, Relation, Temporal
 from ..core.influence import NAMED
-from ..core.interfaces import BlockView, ElasticModuli, Material
+from ..core.interfaces import SMALL_STRAIN, BlockView, ElasticModuli, Material
 from ..kernels.lengths import compiled_with_lengths
 from . import pals_kernels as kern
 from .moduli import IsotropicElasticParams, isotropic_moduli
@@ -69,6 +69,7 @@ class PalsParams(IsotropicElasticParams):
 
 class Pals(Material):
     """Position-aware linear peridynamic solid (Peridigm's ``Pals``)."""
+    small_strain_limit = SMALL_STRAIN  # a linear law
 
     name = "Pals"
     Params = PalsParams

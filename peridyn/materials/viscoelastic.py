@@ -26,7 +26,7 @@ import numpy as np
 from pydantic import Field
 
 from ..core.fields import FieldSpec, Relation, Temporal
-from ..core.interfaces import BlockView
+from ..core.interfaces import SMALL_STRAIN, BlockView
 from ..kernels import compiled
 from ..kernels.lengths import compiled_with_lengths
 from .deviatoric import (
@@ -48,6 +48,7 @@ class ViscoelasticParams(DeviatoricParams):
 
 class Viscoelastic(DeviatoricStateMaterial):
     """Peridigm's ``Viscoelastic`` (standard linear solid on the deviatoric extension)."""
+    small_strain_limit = SMALL_STRAIN  # a linear law
 
     name = "Viscoelastic"
     Params = ViscoelasticParams

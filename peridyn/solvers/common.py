@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Callable
 
 import numpy as np
 from numba import njit
@@ -43,19 +44,25 @@ class SolverSection(ModelParams):
         return self
 
 
-def count_steps(t0: float, t1: float, dt: float, *, source: str, file: str | None, path: tuple[str, ...]) -> int:
+def count_steps(t0: float, t1: float, dt: float, *, source: str, file: str | None, path: tuple[str, ...],
+                hint: Callable[[], str] | None = None) -> int:
     """floor((t1 - t0) / dt), Peridigm's step count; InputError when it cannot be counted or is
-    0 (a run that would end "done" without a step). ``source`` says where dt came from."""
+    0 (a run that would end "done" without a step). ``source`` says where dt came from;
+    ``hint`` gives the model's likely unit slip for that message (collective under MPI: every
+    rank reaches the error alike)."""
     steps = (t1 - t0) / dt
     if not math.isfinite(steps):
         raise InputError(f"the time step {dt!r} is too small for the time span to be counted in steps", file=file, path=path,
                          fix="check Fixed dt and Final Time")
     if steps < 1.0:
+        slip = hint() if hint is not None else ""
         raise InputError(
-            f"the time step {dt:.6g} ({source}) is longer than the solver's interval {t1 - t0:.6g} (Initial Time {t0:.6g} to "
-            f"Final Time {t1:.6g}): not one step would be run",
+            f"the time step {dt:.6g} ({source}) is longer than the solver's interval {t1 - t0:.6g}: not one step would be run"
+            if slip else f"the time step {dt:.6g} ({source}) is longer than the solver's interval {t1 - t0:.6g} (Initial Time "
+            f"{t0:.6g} to Final Time {t1:.6g}): not one step would be run",
             file=file, path=path,
-            fix="give a later 'Final Time' or a smaller time step; a step from the estimate may mean moduli in GPa, not Pa",
+            fix=(slip if slip else
+                 "give a later 'Final Time' or a smaller time step; a step from the estimate may mean moduli in GPa, not Pa"),
         )
     return int(math.floor(steps))
 
@@ -130,6 +137,13 @@ def judge_energy(monitor: "EnergyMonitor", section: str, dt: float, dt_crit: flo
     dt^2). The run is not stopped: a stable run's answer is Verlet's answer to the deck, as
     Peridigm's (see ``EnergyMonitor.check``). Nothing when the account is not kept (thermal
     strain) or the energy is negligible."""
+    created = monitor.created()
+    if created > 0.0:
+        log.warning(
+            "%s: the body ends with a negative stored energy (%.4g, %.2g%% of the run's largest energy): its materials "
+            "gave it energy no load supplied, so the closed energy balance does not vouch for this run; a model outside "
+            "its range (see any warning above on strain or rotation) does this", section, -created, 100.0 * created / monitor.max_scale,
+        )
     if not (monitor.accounting and monitor.max_scale > monitor.floor and monitor.max_error > SUSPECT_BALANCE_ERROR):
         return
     better = dt * math.sqrt(0.01 / monitor.max_error)
@@ -221,6 +235,11 @@ class EnergyMonitor:
             self.stored0 = None
         if self.stored0 is not None:
             self.max_scale = max(self.max_scale, abs(self.stored0))
+        #: the stored energy at the start where it is known: what the materials report, or 0 for
+        #: a body in its reference configuration (no displacement), whatever its materials
+        u = sim.fields["Displacement"][:n]
+        at_reference = sim.comm.allreduce_max(float(np.abs(u).max()) if n else 0.0) == 0.0
+        self.start_energy = self.stored0 if self.stored0 is not None else (0.0 if at_reference else None)
         #: energy of a strain of 1e-6 everywhere: below it, ratios of energies are round-off
         volume = sim.comm.allreduce_sum(float(np.sum(sim.fields["Volume"][:n])))
         stiffest = max((float(blk.material.bulk_modulus) for blk in sim.blocks), default=0.0)
@@ -288,9 +307,20 @@ class EnergyMonitor:
         empty = self._empty
         self._pending = (du, f_old, f_new, b_old if b_old is not None else empty, b_new if b_new is not None else empty)
 
+    def created(self) -> float:
+        """Energy the materials made from nothing by the end of the run: -(E0 + E) where the start
+        energy E0 is known and the total stored energy E0 + E is negative beyond the integrator's
+        error (twice the largest balance error, and round-off); else 0. A body cannot store a
+        negative energy: a model that gives it one is outside the range where it is a material."""
+        if self.start_energy is None or not self.accounting:
+            return 0.0
+        created = -(self.start_energy + self.stored)
+        return created if created > 2.0 * self.max_balance + 1e-9 * self.max_scale + self.floor else 0.0
+
     def account(self) -> dict[str, float]:
         """The run's energy account for the summary (see ``_account``)."""
         return {
+            "created": self.created(),
             "kinetic_initial": self.kinetic0,
             "kinetic": self.kinetic,
             "stored_from_work": self.stored,
@@ -375,7 +405,7 @@ class EnergyMonitor:
         half = w // 2
         if self.stored0 is not None and ke[-1] > ke[0]:
             created = -(self.stored0 + self.stored)
-            if created > self.created_fraction * self.max_scale:
+            if created > self.created_fraction * self.max_scale and created > self.floor:  # not round-off
                 self._fail_created(step, time, created)
         if self.accounting and all(r > 1.0 for r in ratios[-half:]):
             before = self.history[0][1]
@@ -474,13 +504,19 @@ class EnergyMonitor:
         if note.startswith("contact springs"):  # the contact springs are what the step cannot resolve
             return note
         ratio = self.dt / self.dt_estimate if self.dt_estimate > 0 else float("inf")
+        slip = self.sim.unit_slip_hint()
         if not ratio < 1e3:  # a broken estimate (a density of 1e-297, say): no thousand-digit number
             advice = f"the time step {self.dt:.4g} is far above the stable estimate {self.dt_estimate:.4g}; check the density and moduli"
+        elif slip and ratio <= 1.0:  # the step is within the estimate: the model, not the step, is wrong
+            advice = f"the time step {self.dt:.4g} is {ratio:.2f} times the stable estimate {self.dt_estimate:.4g}; {slip}"
+            slip = ""
         else:
             advice = (
                 f"the time step {self.dt:.4g} is {ratio:.2f} times the stable estimate {self.dt_estimate:.4g}; "
                 f"use 'Safety Factor' <= 1 or a 'Fixed dt' below {self.dt_estimate:.4g}"
             )
+        if slip:
+            advice = f"{advice}; {slip}"
         return f"{advice}; {note}" if note else advice
 
     def _fail_nonfinite(self, step: int, time: float) -> None:

@@ -18,8 +18,9 @@ from pydantic import Field
 from ..core.errors import InputError, InstabilityError
 from ..core.interfaces import Solver
 from ..core.params import ModelParams
-from .progress import Progress
 from .common import EnergyMonitor, SolverSection, count_steps, judge_energy
+from .model_range import RangeWatch
+from .progress import Progress
 
 log = logging.getLogger("peridyn.solver")
 
@@ -127,7 +128,7 @@ class Verlet(Solver):
         if p.safety_factor is not None:
             source += " times the Safety Factor"
         return count_steps(self.params.initial_time, self.params.final_time, dt, source=source, file=sim.deck.file,
-                           path=(self.section, "Verlet"))
+                           path=(self.section, "Verlet"), hint=sim.unit_slip_hint)
 
     def run(self, sim) -> None:
         if sim.device == "gpu":
@@ -191,6 +192,7 @@ class Verlet(Solver):
         du = np.empty_like(u)
         yield first - 1
         progress = Progress(nsteps, f"{self.section}", enabled=sim.progress)
+        watch = RangeWatch(sim, nsteps)
         wall0 = _time.perf_counter()
         force_time = 0.0
         for step in range(first, nsteps + 1):
@@ -217,6 +219,7 @@ class Verlet(Solver):
             monitor.force_work(du, f_old, f["Force_Density"], b_old, f["External_Force_Density"] if has_b else None)
             sim.load_data(t)
             monitor.check(step, t)
+            watch.after_step(step)
             sim.write_output(t)
             sim.advance()
             progress.update(step)

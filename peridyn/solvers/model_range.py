@@ -1,0 +1,156 @@
+"""Whether a run stays where its models' laws hold.
+
+A linear peridynamic solid at 47 % strain, or a small-rotation correspondence model turned by 90
+degrees, still runs, and its energy balance may still close; the answer is then the law's
+extrapolation, not the material's. Materials declare their range (``Material.small_strain_limit``,
+the largest bond strain of intact bonds at which their law is still theirs;
+``Material.small_rotation_limit``, the largest rotation of a point's family, in radians, for
+models whose strain is not rotation invariant). :class:`RangeWatch` measures, a few times per
+solver section, the largest strain of each such block's intact bonds and the largest rotation
+of its points' families (the polar decomposition of the family's deformation gradient), and
+warns once per block and measure, naming the block, the value, the point and the limit. Blocks
+whose materials declare no limit cost nothing.
+"""
+from __future__ import annotations
+
+import logging
+import math
+from typing import Any
+
+import numpy as np
+from numba import njit, prange
+
+log = logging.getLogger("peridyn.solver")
+
+#: checks per solver section (and one at its end): the strain check is one pass over the bonds
+CHECKS_PER_SECTION = 10
+
+
+@njit(cache=True, parallel=True)
+def bond_strain_kernel(start, stop, offsets, neighbors, x, y, damage, out):
+    """out[i - start] = largest |(|y_j - y_i| - |x_j - x_i|) / |x_j - x_i|| over point i's bonds
+    with damage below 1 (damage empty: every bond), for start <= i < stop."""
+    has_d = damage.shape[0] > 0
+    for i in prange(start, stop):
+        worst = 0.0
+        for b in range(offsets[i], offsets[i + 1]):
+            if has_d and damage[b] >= 1:
+                continue
+            j = neighbors[b]
+            r0 = 0.0
+            r = 0.0
+            for c in range(3):
+                d0 = x[j, c] - x[i, c]
+                d = y[j, c] - y[i, c]
+                r0 += d0 * d0
+                r += d * d
+            if r0 > 0.0:
+                s = abs(math.sqrt(r) / math.sqrt(r0) - 1.0)
+                if s > worst:
+                    worst = s
+        out[i - start] = worst
+
+
+@njit(cache=True, parallel=True)
+def family_gradient_kernel(start, stop, offsets, neighbors, x, y, volume, F):
+    """F[i - start] (3, 3) = (sum_j eta (x) xi V_j) (sum_j xi (x) xi V_j)^-1 over point i's bonds,
+    xi = x_j - x_i, eta = y_j - y_i: the deformation gradient that best fits the family's
+    motion (identity where the family does not span three dimensions)."""
+    for i in prange(start, stop):
+        K = np.zeros((3, 3))
+        N = np.zeros((3, 3))
+        for b in range(offsets[i], offsets[i + 1]):
+            j = neighbors[b]
+            for r in range(3):
+                for c in range(3):
+                    K[r, c] += (x[j, c] - x[i, c]) * (x[j, r] - x[i, r]) * volume[j]
+                    N[r, c] += (y[j, r] - y[i, r]) * (x[j, c] - x[i, c]) * volume[j]
+        det = np.linalg.det(K)
+        scale = K[0, 0] + K[1, 1] + K[2, 2]
+        if scale > 0.0 and abs(det) > 1e-9 * scale * scale * scale:
+            F[i - start] = N @ np.linalg.inv(K)
+        else:
+            F[i - start] = np.eye(3)
+
+
+def rotation_angles(F: np.ndarray) -> np.ndarray:
+    """(n,) angle (radians, 0 to pi) of the rotation R of the polar decomposition F = R U of
+    each (3, 3) F of ``F`` (n, 3, 3)."""
+    if not len(F):
+        return np.zeros(0)
+    u, _, vt = np.linalg.svd(F)
+    R = u @ vt
+    flip = np.linalg.det(R) < 0.0
+    if np.any(flip):  # an inverted family: the nearest proper rotation
+        u[flip, :, 2] *= -1.0
+        R = u @ vt
+    cos = 0.5 * (np.trace(R, axis1=1, axis2=2) - 1.0)
+    return np.arccos(np.clip(cos, -1.0, 1.0))
+
+
+class RangeWatch:
+    """Measures a run's deformation against its materials' declared ranges (see module doc)."""
+
+    def __init__(self, sim: Any, steps: int) -> None:
+        self.sim = sim
+        self.stride = max(1, steps // CHECKS_PER_SECTION)
+        self.steps = steps
+        self.blocks = [blk for blk in sim.blocks
+                       if blk.material.small_strain_limit is not None or blk.material.small_rotation_limit is not None]
+        #: (block name, "strain" | "rotation") already warned about, in this run
+        self.warned: set[tuple[str, str]] = sim.stats.setdefault("range_warned", set())
+        #: largest measure per block and kind over the run, for the summary
+        self.largest: dict[str, dict[str, float]] = sim.stats.setdefault("range", {})
+
+    def after_step(self, step: int) -> None:
+        """Measure after ``step`` when one is due (every ``stride`` steps and at the last)."""
+        if self.blocks and (step % self.stride == 0 or step == self.steps):
+            self.measure()
+
+    def measure(self) -> None:
+        sim = self.sim
+        f = sim.fields
+        nl = sim.bonds
+        n = sim.num_owned
+        x, y = f["Model_Coordinates"], f["Coordinates"]
+        damage = f["Bond_Damage"] if "Bond_Damage" in f else np.zeros(0)
+        for blk in self.blocks:
+            lo, hi = blk.start, min(blk.stop, n)
+            mat = blk.material
+            for kind, limit in (("strain", mat.small_strain_limit), ("rotation", mat.small_rotation_limit)):
+                if limit is None:
+                    continue
+                values = np.zeros(max(hi - lo, 0))
+                if hi > lo:
+                    if kind == "strain":
+                        bond_strain_kernel(lo, hi, nl.offsets, nl.neighbors, x, y, damage, values)
+                    else:
+                        F = np.empty((hi - lo, 3, 3))
+                        family_gradient_kernel(lo, hi, nl.offsets, nl.neighbors, x, y, f["Volume"], F)
+                        values = rotation_angles(F)
+                k = int(np.argmax(values)) if values.size else -1
+                local = (float(values[k]), int(sim.gid[lo + k]) + 1, tuple(float(c) for c in x[lo + k])) if k >= 0 else (0.0, 0, ())
+                worst = max(sim.comm.allgather(local), key=lambda v: v[0]) if sim.comm.size > 1 else local
+                seen = self.largest.setdefault(blk.name, {})
+                seen[kind] = max(seen.get(kind, 0.0), worst[0])
+                if worst[0] > limit and (blk.name, kind) not in self.warned:
+                    self.warned.add((blk.name, kind))
+                    self._warn(blk, kind, limit, worst)
+
+    def _warn(self, blk: Any, kind: str, limit: float, worst: tuple) -> None:
+        value, gid, where = worst
+        at = f"point {gid} (x = {', '.join(f'{c:.4g}' for c in where)})"
+        name = blk.material.name
+        if kind == "strain":
+            log.warning(
+                "block %s: its bonds reach a strain of %.3g at %s, beyond %g, where the small-strain law of %r holds; "
+                "the answer from here is the linear law's extrapolation (use a model for large strains, or smaller loads)",
+                blk.name, value, at, limit, name,
+            )
+        else:
+            log.warning(
+                "block %s: its families have turned by %.3g degrees at %s, beyond the %.3g degrees within which %r "
+                "(whose strain is not rotation invariant) holds; the stresses from here follow the rotation, not the "
+                "material (use a rotation-invariant model such as Elastic, or a hypoelastic correspondence model)",
+                blk.name, math.degrees(value), at, math.degrees(limit), name,
+            )
