@@ -23,9 +23,9 @@ from pydantic import Field, field_validator
 from ..core.errors import InputError, raise_collected
 from ..core.params import ModelParams
 from ..plugins.manager import Registry, get_registry
-from .regions import RegionSpec
+from .boundary import BCEntry, NodeSetEntry, parse_boundary_conditions, tidy
 from .source import SECTION_NAMES
-from .validation import ignored_value_problem, validate_params
+from .validation import close_key, ignored_value_problem, suggest as _choices, validate_params
 
 log = logging.getLogger("peridyn.deck")
 
@@ -43,11 +43,6 @@ IGNORED_TOP_LEVEL = {
 RANDOM_SEED_KEY = "Random Seed"
 #: Peridigm sections that peridyn does not implement yet
 UNSUPPORTED_SECTIONS: dict[str, str] = {}
-
-
-def tidy(name: str) -> str:
-    """Peridigm's ``tidy_string``: upper case, trim spaces, remaining spaces become ``_``."""
-    return str(name).upper().strip(" ").replace(" ", "_")
 
 
 # ------------------------------------------------------------------------------------------------
@@ -132,22 +127,6 @@ class BlockEntry:
     material: str
     damage_model: str | None
     horizon: float | str | None
-    path: tuple[str, ...]
-
-
-@dataclass
-class NodeSetEntry:
-    name: str  #: tidied
-    value: str | RegionSpec  #: point numbers or a file name; or a region (docs/regions.md)
-    path: tuple[str, ...]
-
-
-@dataclass
-class BCEntry:
-    name: str
-    type: str  #: tidied
-    cls: type
-    params: Any
     path: tuple[str, ...]
 
 
@@ -306,51 +285,7 @@ def parse_deck(source, registry: Registry | None = None) -> Deck:
         blocks.append(BlockEntry(names, p.material, p.damage_model, horizon, path))
 
     # -- boundary conditions ----------------------------------------------------------------------
-    node_sets: dict[str, NodeSetEntry] = {}
-    invalid_node_sets: set[str] = set()  # reported already: conditions using them are not "unknown"
-    bcs: list[BCEntry] = []
-    for name, raw in section("Boundary Conditions").items():
-        path = ("Boundary Conditions", name)
-        if "NODE_SET" in tidy(name):
-            if isinstance(raw, Mapping):  # a region (docs/regions.md)
-                region = validate_params(RegionSpec, raw, path=path, file=file, errors=errors, lines=lines)
-                if region is not None:
-                    node_sets[tidy(name)] = NodeSetEntry(tidy(name), region, path)
-                else:
-                    invalid_node_sets.add(tidy(name))
-                continue
-            if isinstance(raw, bool) or not isinstance(raw, (str, int)):
-                invalid_node_sets.add(tidy(name))
-                err(f"a node set must be a string of point numbers, a file name or a region (got {raw!r})", path,
-                    "e.g. \"1 2 3\", \"left.txt\" or {Box: {Min: [x, y, z], Max: [x, y, z]}} (docs/regions.md)")
-                continue
-            node_sets[tidy(name)] = NodeSetEntry(tidy(name), str(raw), path)
-            continue
-        if not isinstance(raw, Mapping):
-            err(f"expected a boundary condition (Type, Node Set, Coordinate, Value), got {raw!r}", path, "or name the entry '... Node Set' to define a node set")
-            continue
-        bc_type = raw.get("Type")
-        if bc_type is None:
-            err("missing required key 'Type'", path)
-            continue
-        if not isinstance(bc_type, str):
-            errors.append(registry.unknown("boundary_condition", bc_type, path=path + ("Type",), file=file))
-            continue
-        key = tidy(bc_type)
-        if not registry.has("boundary_condition", key):
-            errors.append(registry.unknown("boundary_condition", str(bc_type), path=path + ("Type",), file=file))
-            continue
-        cls = registry.get("boundary_condition", key, path=path + ("Type",), file=file)
-        params = validate_params(cls.Params, raw, path=path, file=file, errors=errors, lines=lines)
-        if params is not None:
-            for problem in cls.check(params):
-                err(problem, path)
-            bcs.append(BCEntry(name, key, cls, params, path))
-    for bc in bcs:
-        ns = getattr(bc.params, "node_set", None)
-        if ns is not None and "NODE_SET" in tidy(ns) and tidy(ns) not in node_sets and tidy(ns) not in invalid_node_sets:
-            # mesh node sets (nodelist_1) are checked once the mesh is read
-            err(f"unknown node set {ns!r}", bc.path + ("Node Set",), _choices(ns, node_sets))
+    node_sets, bcs = parse_boundary_conditions(section("Boundary Conditions"), registry, file, errors, lines)
 
     # -- solvers ---------------------------------------------------------------------------------
     solvers: list[SolverEntry] = []
@@ -381,7 +316,8 @@ def parse_deck(source, registry: Registry | None = None) -> Deck:
     for name, raw in section("Compute Class Parameters").items():
         path = ("Compute Class Parameters", name)
         if not isinstance(raw, Mapping) or "Compute Class" not in raw:
-            err("missing required key 'Compute Class'", path)
+            message, fix = _missing_model_key("Compute Class", raw, registry.names("compute"))
+            err(message, path, fix)
             continue
         cname = str(raw["Compute Class"]).replace(" ", "_")
         if not registry.has("compute", cname):
@@ -474,14 +410,16 @@ def _parse_multiphysics(tree, materials, err) -> bool:
 # ------------------------------------------------------------------------------------------------
 # helpers
 # ------------------------------------------------------------------------------------------------
-def _choices(name: str, options) -> str:
-    import difflib
-
-    options = list(options)
-    close = difflib.get_close_matches(str(name), options, n=1, cutoff=0.6)
-    if close:
-        return f"did you mean {close[0]!r}?"
-    return f"defined: {', '.join(options)}" if options else "none is defined"
+def _missing_model_key(key: str, raw: Any, names: list[str]) -> tuple[str, str]:
+    """(problem, fix) for an entry without the key that names its model: a mistyped key is named,
+    a value that is not a list of parameters is shown."""
+    if not isinstance(raw, Mapping):
+        return f"expected a list of parameters with {key!r}, got {raw!r}", f"write it as '{key}: <name>' and the model's parameters under the entry"
+    typo = close_key(key, raw)
+    if typo is not None:
+        return f"missing required key {key!r} (the entry has {typo!r})", f"rename {typo!r} to {key!r}"
+    shown = ", ".join(names[:12]) + (", ..." if len(names) > 12 else "")
+    return f"missing required key {key!r}", f"add '{key}: <name>', one of {shown}"
 
 
 def _check_expression(text: str, variables, path, file, errors) -> None:
@@ -505,7 +443,8 @@ def _parse_models(sec, section_name, kind, key, registry, file, errors, lines) -
             continue
         model = raw.get(key)
         if model is None:
-            errors.append(InputError(f"missing required key {key!r}", file=file, path=path, line=lines(path)))
+            message, fix = _missing_model_key(key, raw, registry.names(kind))
+            errors.append(InputError(message, file=file, path=path, line=lines(path), fix=fix))
             continue
         if not registry.has(kind, model):
             errors.append(registry.unknown(kind, model, path=path + (key,), file=file))

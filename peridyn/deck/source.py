@@ -162,6 +162,49 @@ def infer_scalar(text: str) -> Leaf:
     return _convert(text, _kind_of_plain(text))
 
 
+def typed_tree(value: Any) -> Any:
+    """A Python deck (a dict deck, from the API or a test) as the raw tree the same deck in a
+    YAML file gives: numpy scalars and arrays as Python values, tuples as lists, keys as text,
+    integers beyond 32 bits as doubles, and each list of one Teuchos type, the lowest of its
+    items' (``[0.002, 0, 0]`` -> ``[0.002, 0.0, 0.0]``, ``["a", 1]`` -> ``["a", "1"]``). What no
+    YAML deck holds (a list with bools, lists or mappings in it, None, other objects) is left as
+    it is, for validation to report at its deck path."""
+    value = _python(value)
+    if isinstance(value, dict) or (hasattr(value, "items") and hasattr(value, "keys")):
+        return {str(k): typed_tree(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        items = [_python(v) for v in value]
+        if not all(isinstance(v, (int, float, str)) and not isinstance(v, bool) for v in items):
+            return [typed_tree(v) for v in items]
+        if any(isinstance(v, str) for v in items):
+            return [v if isinstance(v, str) else repr(v) if isinstance(v, float) else str(v) for v in items]
+        if any(isinstance(v, float) or not INT_MIN <= v <= INT_MAX for v in items):
+            return [_double(v) for v in items]
+        return items
+    if isinstance(value, int) and not isinstance(value, bool) and not INT_MIN <= value <= INT_MAX:
+        return _double(value)
+    return value
+
+
+def _python(value: Any) -> Any:
+    """numpy scalars and arrays as Python values (arrays as lists)."""
+    import numpy as np
+
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def _double(value: int | float) -> float:
+    """``value`` as a double, as its digits in a file read: infinite when too large."""
+    try:
+        return float(value)
+    except OverflowError:
+        return float("inf") if value > 0 else float("-inf")
+
+
 # --------------------------------------------------------------------------------------------
 # Shared tree building
 # --------------------------------------------------------------------------------------------

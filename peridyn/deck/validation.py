@@ -34,6 +34,29 @@ def _submodel(model: type[BaseModel] | None, loc: Sequence[Any]) -> type[BaseMod
     return model
 
 
+def suggest(name: Any, options: Any) -> str:
+    """"did you mean 'x'?" for the option closest to ``name``, else the options defined."""
+    options = [str(o) for o in options]
+    close = difflib.get_close_matches(str(name), options, n=1, cutoff=0.6)
+    if close:
+        return f"did you mean {close[0]!r}?"
+    return f"defined: {', '.join(options)}" if options else "none is defined"
+
+
+def close_key(expected: str, raw: Mapping[str, Any], others: Sequence[str] = ()) -> str | None:
+    """The key of ``raw`` that is most likely ``expected`` mistyped (another case, spaces, a
+    letter off), not one of ``others`` (keys that mean something else there); None if none is."""
+    def plain(key: Any) -> str:
+        return str(key).lower().replace(" ", "").replace("_", "")
+
+    candidates = [k for k in raw if k != expected and k not in others]
+    same = [k for k in candidates if plain(k) == plain(expected)]
+    if same:
+        return str(same[0])
+    close = difflib.get_close_matches(plain(expected), [plain(k) for k in candidates], n=1, cutoff=0.75)
+    return next((str(k) for k in candidates if close and plain(k) == close[0]), None)
+
+
 def _describe(value: Any) -> str:
     text = repr(value)
     return text if len(text) <= 60 else text[:57] + "..."
@@ -101,11 +124,17 @@ def convert_errors(exc: ValidationError, model: type[BaseModel], *, path: Sequen
             out.append(InputError(f"missing required key {loc[-1]!r}{desc}", file=file, path=full[:-1], line=line))
         elif kind in ("value_error", "assertion_error"):
             msg = str(err["msg"]).removeprefix("Value error, ").removeprefix("Assertion failed, ")
-            key = getattr((err.get("ctx") or {}).get("error"), "key", None)
+            cause = (err.get("ctx") or {}).get("error")
+            key = getattr(cause, "key", None)
             if isinstance(key, (str, tuple)):  # a validator's problem with one key: name its path
                 full = full + ((key,) if isinstance(key, str) else tuple(key))
                 line = lines(full) if lines else line
-            out.append(InputError(msg, file=file, path=full, line=line))
+            fix = getattr(cause, "fix", None)
+            if isinstance(fix, str) and isinstance(getattr(cause, "message", None), str):
+                msg = cause.message  # the validator gave the problem and the fix apart
+            else:
+                fix = None
+            out.append(InputError(msg, file=file, path=full, line=line, fix=fix))
         else:
             msg = str(err["msg"])
             problem, fix = explain(kind, err.get("ctx") or {}, err.get("input"), msg)

@@ -97,10 +97,10 @@ def build_simulation(tree: dict[str, Any], *, directory: str | Path = ".", regis
     File names in the deck are relative to ``directory``."""
     from ..deck.model import parse_deck
     from ..engine.simulation import Simulation
-    from ..deck.source import DeckSource
+    from ..deck.source import DeckSource, typed_tree
 
     directory = Path(directory)
-    source = DeckSource(copy.deepcopy(tree), directory / "<memory>.yaml", "yaml", {})
+    source = DeckSource(typed_tree(tree), directory / "<memory>.yaml", "yaml", {})
     deck = parse_deck(source, registry)
     return Simulation(deck, output_dir=output_dir or directory, progress=False, backend=backend)
 

@@ -1,12 +1,12 @@
-"""Launching peridyn under mpiexec from tests (for peridyn's own tests and plugin authors')."""
+"""Launching peridyn under mpiexec from tests (for peridyn's own tests and plugin authors').
+
+``requires_mpi`` (a pytest mark) is made on first use, so that the module imports without pytest."""
 import os
 import shutil
 import subprocess
 import sys
 from pathlib import Path
-
-import pytest
-
+from typing import Any
 
 def find_mpiexec() -> str | None:
     here = Path(sys.executable).parent / "mpiexec"
@@ -28,7 +28,12 @@ def have_mpi() -> bool:
     return True
 
 
-requires_mpi = pytest.mark.skipif(not have_mpi(), reason="mpiexec or mpi4py not installed (pip install mpi4py mpich)")
+def __getattr__(name: str) -> Any:
+    if name == "requires_mpi":
+        import pytest
+
+        return pytest.mark.skipif(not have_mpi(), reason="mpiexec or mpi4py not installed (pip install mpi4py mpich)")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def mpirun(ranks: int, args: list[str], cwd, timeout: float = 300, env: dict | None = None) -> subprocess.CompletedProcess:

@@ -23,7 +23,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import pytest
 
 from ..core.interfaces import BlockView, DamageModel, Material
 from ..plugins.hookspecs import hookimpl
@@ -247,6 +246,7 @@ def run_checks(suite: type, names: Iterable[str] | None = None, *, stop_at_failu
     """Run the ``test_*`` methods of the suite class ``suite`` (or ``names``, in that order) on
     a fresh instance each; return name -> :class:`Outcome`. ``stop_at_failure``: stop after the
     first failed assertion."""
+    import pytest
     names = list(names) if names is not None else sorted(n for n in dir(suite) if n.startswith("test_"))
     results: dict[str, Outcome] = {}
     for name in names:

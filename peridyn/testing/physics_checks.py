@@ -39,7 +39,6 @@ import math
 from typing import Any
 
 import numpy as np
-import pytest
 
 from .probes import (
     energy_moduli,
@@ -82,6 +81,7 @@ class MaterialPhysicsChecks:
     def stated_moduli(self) -> tuple[float, float]:
         """(K, G) the class states (``moduli``) or the parameters do; skips the check when
         neither does."""
+        import pytest
         if self.moduli is not None:
             return tuple(float(v) for v in self.moduli)
         km = stated_moduli(self.params)
@@ -130,6 +130,7 @@ class MaterialPhysicsChecks:
     def test_stored_energy_gives_the_stated_moduli(self):
         """Homogeneous strains: the stored energy density of interior points is that of the
         stated K and G (for materials that define a stored energy)."""
+        import pytest
         self.stated_moduli()
         sim = self.moduli_lattice()
         self.deform(sim, seed=9)
@@ -171,6 +172,7 @@ class MaterialPhysicsChecks:
 
     def test_angular_momentum_is_conserved(self):
         """sum_i y_i x f_i V_i = 0 on an irregular cloud (central-force materials)."""
+        import pytest
         if not self.central:
             pytest.skip("non-central material")
         sim, f = self._irregular_forces(seed=2)
@@ -223,6 +225,7 @@ class MaterialPhysicsChecks:
     def test_density_is_the_stated_one(self):
         """``density`` is the parameters' Density; the engine's point density and stable time
         step follow it (dt ~ sqrt(rho))."""
+        import pytest
         if "Density" not in self.params:
             pytest.skip("the parameters have no 'Density'")
         rho = float(self.params["Density"])
@@ -238,6 +241,7 @@ class MaterialPhysicsChecks:
 
     def test_bulk_modulus_is_the_stated_one(self):
         """``bulk_modulus`` (the stable time step's K) is the one the parameters state."""
+        import pytest
         K, _ = self.stated_moduli()
         sim = self.simulation(n=4)
         assert sim.blocks[0].material.bulk_modulus == pytest.approx(K, rel=1e-9)
@@ -246,6 +250,7 @@ class MaterialPhysicsChecks:
     def test_force_is_minus_gradient_of_stored_energy(self):
         """f_i = -dE/dy_i / V_i (E the total stored energy) by central differences on random
         degrees of freedom of an irregular cloud (for materials that define an energy)."""
+        import pytest
         sim = self.scattered_simulation(n=5, seed=5)
         self.deform(sim, seed=5)
         f = self.force(sim)

@@ -14,7 +14,6 @@ import tempfile
 from typing import Any, ClassVar
 
 import numpy as np
-import pytest
 
 from .harness import build_simulation, cube_deck, isolated_registry, scattered_deck
 from .physics_checks import MaterialPhysicsChecks, rotation_matrix
@@ -114,6 +113,7 @@ class MaterialConformance(MaterialPhysicsChecks):
 
     # -- checks of the engine contract -------------------------------------------------------
     def test_params_validate(self):
+        import pytest
         with self._registry() as reg:
             from ..plugins.manager import get_registry
 
@@ -133,6 +133,7 @@ class MaterialConformance(MaterialPhysicsChecks):
         np.testing.assert_allclose(f, 0.0, atol=1e-9 * scale)
 
     def test_fused_and_generic_paths_agree(self):
+        import pytest
         sim = self.scattered_simulation(seed=4)
         self.deform(sim, seed=3)
         blk = sim.blocks[0]
@@ -147,6 +148,7 @@ class MaterialConformance(MaterialPhysicsChecks):
         """A material that declares ``row_local`` may be computed in parts (under MPI: the
         points without ghost neighbors while the halo messages travel); the forces must be the
         ones of the whole block, bit for bit."""
+        import pytest
         sim = self.simulation()
         blk = sim.blocks[0]
         if not (blk.material.row_local and blk.fused):
@@ -210,6 +212,7 @@ class DamageConformance:
         assert float(np.abs(sim.fields["Damage"]).max()) == 0.0
 
     def test_fused_and_generic_paths_agree_with_broken_bonds(self):
+        import pytest
         sim = self.simulation()
         blk = sim.blocks[0]
         if not blk.fused:
@@ -227,6 +230,7 @@ class DamageConformance:
     def test_row_local_parts_give_the_same_damage_and_forces(self):
         """With ``row_local`` models, computing each block in two parts (as under MPI with halo
         overlap) gives the same damage and forces as the whole block, with broken bonds."""
+        import pytest
         sim = self.simulation()
         blk = sim.blocks[0]
         if not (blk.material.row_local and blk.fused and blk.damage.row_local):
@@ -301,6 +305,7 @@ class DamageConformance:
     def test_declared_symmetry_holds(self):
         """A model that declares ``symmetric`` (materials then skip the reverse bond) gives
         both ends of every bond the same damage."""
+        import pytest
         sim = self.simulation()
         if not sim.blocks[0].damage.symmetric:
             pytest.skip("the damage model does not declare symmetric damage")

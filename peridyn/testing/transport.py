@@ -23,7 +23,6 @@ from __future__ import annotations
 from typing import Any, ClassVar
 
 import numpy as np
-import pytest
 
 from .harness import build_simulation, cube_deck
 
@@ -71,6 +70,7 @@ class TransportConformance:
         assert np.all(np.abs(Q) == 0.0), f"largest flux {np.abs(Q).max():.3g} for a uniform field"
 
     def test_flux_is_conservative(self):
+        import pytest
         if not self.conservative:
             pytest.skip("the model's quadrature is not conservative")
         sim = self.build(shape=(5, 6, 4))
@@ -90,6 +90,7 @@ class TransportConformance:
         assert np.abs(Q[inner]).max() <= 1e-10 * ref
 
     def test_flux_is_linear_in_the_field(self):
+        import pytest
         if not self.linear:
             pytest.skip("the model is not linear in its field")
         sim = self.build(shape=(5, 5, 5))
@@ -116,6 +117,7 @@ class TransportConformance:
         np.testing.assert_allclose(many, one, rtol=0, atol=1e-13 * self.scale(one))
 
     def test_non_finite_field_stops(self):
+        import pytest
         from ..core.errors import InstabilityError
 
         sim = self.build(shape=(3, 3, 3))

@@ -21,7 +21,6 @@ force.
 """
 from __future__ import annotations
 
-import importlib
 from typing import Any, Callable, ClassVar
 
 import numpy as np
@@ -29,13 +28,11 @@ from numba import njit, prange
 from pydantic import Field, field_validator, model_validator
 
 from ...core.fields import FieldSpec, Length, Relation, Temporal
-from ...core.errors import InputError
 from .classic import ClassicCorrespondence
+from .law_check import STATE_SIZE, LawError, check_law, load_law
 from . import params as P
 
-#: the law's state variables per point (the columns of Stress_Law_State, a tensor-sized field)
-STATE_SIZE = int(Length.TENSOR)
-
+__all__ = ["STATE_SIZE", "LawError", "StressLawCorrespondence", "StressLawParams", "check_law", "law_kernel", "load_law"]
 
 class StressLawParams(P.ClassicParams):
     stress_law: str = Field(alias="Stress Law", description="the law as module:function, a numba function "
@@ -45,14 +42,8 @@ class StressLawParams(P.ClassicParams):
 
     @field_validator("stress_law")
     @classmethod
-    def _module_function(cls, value: str) -> str:
-        module, _, function = value.partition(":")
-        if not module or not function:
-            raise ValueError(f"{value!r} is not module:function (e.g. peridyn.materials.correspondence.laws:neo_hookean)")
-        try:
-            load_law(value)
-        except InputError as exc:
-            raise ValueError(f"{exc.message}; {exc.fix}") from None
+    def _loadable(cls, value: str) -> str:
+        load_law(value)
         return value
 
     @field_validator("law_parameters")
@@ -63,31 +54,15 @@ class StressLawParams(P.ClassicParams):
             raise ValueError(f"Law Parameters must be finite numbers, got {bad[0]!r}")
         return value
 
-
     @model_validator(mode="after")
-    def _shapes(self) -> "StressLawParams":
-        """The law called once at F = I: a (3, 3) stress and at most 9 state variables (the kernel
-        writes them into the 9 columns of Stress_Law_State)."""
-        sigma, state = load_law(self.stress_law)(np.eye(3), np.eye(3), np.zeros(STATE_SIZE), 0.0,
-                                                 np.asarray(self.law_parameters, dtype=np.float64))
-        if np.shape(sigma) != (3, 3) or np.ndim(state) != 1 or np.shape(state)[0] > STATE_SIZE:
-            raise ValueError(f"Stress Law {self.stress_law!r} returned a stress of shape {np.shape(sigma)} and a state of shape "
-                             f"{np.shape(state)}; it must return the (3, 3) Cauchy stress and at most {STATE_SIZE} state variables")
+    def _callable(self) -> "StressLawParams":
+        """The law called at F = I and a small strain: a (3, 3) stress and at most 9 state
+        variables (the point loop writes them into the 9 columns of Stress_Law_State), finite."""
+        try:
+            check_law(self.stress_law, self.law_parameters)
+        except LawError as exc:
+            raise LawError(exc.message, exc.fix, key="Stress Law") from None
         return self
-
-
-def load_law(spec: str) -> Callable[..., Any]:
-    """The numba function named ``module:function``; InputError naming what is wrong."""
-    module, _, function = spec.partition(":")
-    try:
-        law = getattr(importlib.import_module(module), function)
-    except (ImportError, AttributeError) as exc:
-        raise InputError(f"Stress Law {spec!r} cannot be loaded: {type(exc).__name__}: {exc}", path=("Materials", "Stress Law"),
-                         fix="give module:function of an importable numba function") from None
-    if not hasattr(law, "py_func"):
-        raise InputError(f"Stress Law {spec!r} is not a numba function", path=("Materials", "Stress Law"),
-                         fix="decorate it with @numba.njit")
-    return law
 
 
 _KERNELS: dict[Any, Callable[..., Any]] = {}

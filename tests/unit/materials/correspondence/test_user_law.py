@@ -67,7 +67,7 @@ def test_a_rotated_stretch_rotates_the_stress(tmp_path):
 
 
 def test_a_law_that_cannot_be_loaded_is_an_input_error(tmp_path):
-    for spec, words in (("peridyn.no_such_module:law", "cannot be loaded"), ("math:sqrt", "not a numba function")):
+    for spec, words in (("peridyn.no_such_module:law", "cannot be imported"), ("math:sqrt", "not a numba-compiled function")):
         with pytest.raises(InputError, match=words):
             build_simulation(prescribed(np.eye(3), material=dict(LAW, **{"Stress Law": spec})), directory=tmp_path)
     with pytest.raises(Exception, match="module:function"):
@@ -99,7 +99,7 @@ def test_a_law_returning_the_wrong_shapes_is_an_input_error(tmp_path, monkeypatc
         "    return np.zeros((3, 3)), np.zeros(12)\n")
     monkeypatch.syspath_prepend(str(tmp_path))
     material = dict(LAW, **{"Stress Law": "peridyn_test_long_state_law:law", "Law Parameters": []})
-    with pytest.raises(Exception, match="at most 9 state variables"):
+    with pytest.raises(Exception, match="at most 9 numbers"):
         build_simulation(prescribed(np.eye(3), material=material), directory=tmp_path)
 
 
