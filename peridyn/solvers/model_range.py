@@ -6,7 +6,9 @@ extrapolation, not the material's. Materials declare their range (``Material.sma
 the largest bond strain of intact bonds at which their law is still theirs;
 ``Material.small_rotation_limit``, the largest rotation of a point's family, in radians, for
 models whose strain is not rotation invariant). :class:`RangeWatch` measures, a few times per
-solver section, the largest strain of each such block's intact bonds and the largest rotation
+solver section, the largest strain of each such block's families (the principal stretches of the
+deformation gradient fitted to a family's intact bonds, for points with a bond beyond the limit
+and damage at most 1/2) and the largest rotation
 of its points' families (the polar decomposition of the family's deformation gradient), and
 warns once per block and measure, naming the block, the value, the point and the limit. Blocks
 whose materials declare no limit cost nothing.
@@ -27,12 +29,17 @@ CHECKS_PER_SECTION = 10
 
 
 @njit(cache=True, parallel=True)
-def bond_strain_kernel(start, stop, offsets, neighbors, x, y, damage, out):
+def bond_strain_kernel(start, stop, offsets, neighbors, x, y, damage, point_damage, out):
     """out[i - start] = largest |(|y_j - y_i| - |x_j - x_i|) / |x_j - x_i|| over point i's bonds
-    with damage below 1 (damage empty: every bond), for start <= i < stop."""
+    with damage below 1 (damage empty: every bond), for start <= i < stop; 0 for a point whose
+    ``point_damage`` is above 1/2 (a fragment's debris: its few bonds left are no continuum)."""
     has_d = damage.shape[0] > 0
+    has_p = point_damage.shape[0] > 0
     for i in prange(start, stop):
         worst = 0.0
+        if has_p and point_damage[i] > 0.5:
+            out[i - start] = worst
+            continue
         for b in range(offsets[i], offsets[i + 1]):
             if has_d and damage[b] >= 1:
                 continue
@@ -52,14 +59,19 @@ def bond_strain_kernel(start, stop, offsets, neighbors, x, y, damage, out):
 
 
 @njit(cache=True, parallel=True)
-def family_gradient_kernel(start, stop, offsets, neighbors, x, y, volume, F):
-    """F[i - start] (3, 3) = (sum_j eta (x) xi V_j) (sum_j xi (x) xi V_j)^-1 over point i's bonds,
-    xi = x_j - x_i, eta = y_j - y_i: the deformation gradient that best fits the family's
-    motion (identity where the family does not span three dimensions)."""
-    for i in prange(start, stop):
+def family_gradient_kernel(points, offsets, neighbors, x, y, volume, damage, F):
+    """F[k] (3, 3) = (sum_j eta (x) xi V_j) (sum_j xi (x) xi V_j)^-1 over the intact bonds of point
+    ``points[k]`` (damage below 1; damage empty: every bond), xi = x_j - x_i, eta = y_j - y_i:
+    the deformation gradient that best fits the family's motion (identity where the family
+    does not span three dimensions)."""
+    has_d = damage.shape[0] > 0
+    for k in prange(points.shape[0]):
+        i = points[k]
         K = np.zeros((3, 3))
         N = np.zeros((3, 3))
         for b in range(offsets[i], offsets[i + 1]):
+            if has_d and damage[b] >= 1:
+                continue
             j = neighbors[b]
             for r in range(3):
                 for c in range(3):
@@ -68,9 +80,16 @@ def family_gradient_kernel(start, stop, offsets, neighbors, x, y, volume, F):
         det = np.linalg.det(K)
         scale = K[0, 0] + K[1, 1] + K[2, 2]
         if scale > 0.0 and abs(det) > 1e-9 * scale * scale * scale:
-            F[i - start] = N @ np.linalg.inv(K)
+            F[k] = N @ np.linalg.inv(K)
         else:
-            F[i - start] = np.eye(3)
+            F[k] = np.eye(3)
+
+
+def family_strains(F: np.ndarray) -> np.ndarray:
+    """(n,) largest |lambda - 1| over the principal stretches lambda of each F (n, 3, 3)."""
+    if not len(F):
+        return np.zeros(0)
+    return np.abs(np.linalg.svd(F, compute_uv=False) - 1.0).max(axis=1)
 
 
 def rotation_angles(F: np.ndarray) -> np.ndarray:
@@ -113,7 +132,8 @@ class RangeWatch:
         nl = sim.bonds
         n = sim.num_owned
         x, y = f["Model_Coordinates"], f["Coordinates"]
-        damage = f["Bond_Damage"] if "Bond_Damage" in f else np.zeros(0)
+        damage = f["Bond_Damage"] if "Bond_Damage" in f else np.zeros(0, dtype=np.uint8)
+        point_damage = f["Damage"] if "Damage" in f else np.zeros(0)
         for blk in self.blocks:
             lo, hi = blk.start, min(blk.stop, n)
             mat = blk.material
@@ -122,11 +142,16 @@ class RangeWatch:
                     continue
                 values = np.zeros(max(hi - lo, 0))
                 if hi > lo:
-                    if kind == "strain":
-                        bond_strain_kernel(lo, hi, nl.offsets, nl.neighbors, x, y, damage, values)
+                    if kind == "strain":  # a bond beyond the limit, then its family's strain (not one bond at a crack)
+                        bond_strain_kernel(lo, hi, nl.offsets, nl.neighbors, x, y, damage, point_damage, values)
+                        over = np.flatnonzero(values > limit)
+                        if over.size:
+                            F = np.empty((over.size, 3, 3))
+                            family_gradient_kernel(over + lo, nl.offsets, nl.neighbors, x, y, f["Volume"], damage, F)
+                            values[over] = family_strains(F)
                     else:
                         F = np.empty((hi - lo, 3, 3))
-                        family_gradient_kernel(lo, hi, nl.offsets, nl.neighbors, x, y, f["Volume"], F)
+                        family_gradient_kernel(np.arange(lo, hi), nl.offsets, nl.neighbors, x, y, f["Volume"], damage, F)
                         values = rotation_angles(F)
                 k = int(np.argmax(values)) if values.size else -1
                 local = (float(values[k]), int(sim.gid[lo + k]) + 1, tuple(float(c) for c in x[lo + k])) if k >= 0 else (0.0, 0, ())
@@ -143,7 +168,7 @@ class RangeWatch:
         name = blk.material.name
         if kind == "strain":
             log.warning(
-                "block %s: its bonds reach a strain of %.3g at %s, beyond %g, where the small-strain law of %r holds; "
+                "block %s: its families reach a strain of %.3g at %s, beyond %g, where the small-strain law of %r holds; "
                 "the answer from here is the linear law's extrapolation (use a model for large strains, or smaller loads)",
                 blk.name, value, at, limit, name,
             )
