@@ -123,21 +123,8 @@ def region_mapping(call: str, arg: str, region: Any):
 
 
 def plain(value: Any) -> Any:
-    """A copy of ``value`` with numpy scalars and arrays as plain Python values, and lists read as
-    the same list in a YAML deck is: ints among floats become floats (``[0.002, 0, 0]``), numbers
-    among strings become strings. Bools, None and other objects are left for the deck's checks."""
-    if isinstance(value, Mapping):
-        return {str(k): plain(v) for k, v in value.items()}
-    if isinstance(value, np.ndarray):
-        return plain(value.tolist())
-    if isinstance(value, (list, tuple)):
-        items = [plain(v) for v in value]
-        numbers_only = all(isinstance(v, numbers.Real) and not isinstance(v, bool) for v in items)
-        if numbers_only and any(isinstance(v, float) for v in items):
-            return [float(v) for v in items]
-        if any(isinstance(v, str) for v in items) and all(isinstance(v, (str, numbers.Real)) and not isinstance(v, bool) for v in items):
-            return [v if isinstance(v, str) else repr(float(v)) if isinstance(v, float) else str(v) for v in items]
-        return items
-    if isinstance(value, np.generic):
-        return value.item()
-    return value
+    """A dict deck's ``value`` as the same deck in a YAML file reads (``deck.source.typed_tree``:
+    numpy values as Python ones, ints among floats as floats, numbers among strings as text)."""
+    from ..deck.source import typed_tree
+
+    return typed_tree(value)

@@ -64,7 +64,7 @@ def test_numbers_among_strings_read_as_yaml_reads_them() -> None:
 
 
 @pytest.mark.parametrize("value, words", [
-    ([True, 0, 0], "Point"), ([None, 0, 0], "Point"), ({1, 2}, "set"), (object(), "object"), (2**40, "32-bit"),
+    ([True, 0, 0], "Point"), ([None, 0, 0], "Point"), ({1, 2}, "set"), (object(), "object"), (2**40, "Point"),
     ([0.002, 0, "z"], "Point"), ([float("nan"), 0, 0], "Point"),
 ])
 def test_values_no_deck_holds_are_one_input_error(value, words) -> None:
