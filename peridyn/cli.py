@@ -352,12 +352,25 @@ def cmd_fragments(args) -> int:
     return ExitCode.OK
 
 
+def _readable_path(path: str) -> None:
+    """An input path the system cannot even look at (a name too long, a loop of links) is bad
+    input naming it (shortened), not an internal error."""
+    try:
+        os.stat(path)
+    except FileNotFoundError:
+        return  # the reader says it does not exist
+    except OSError as exc:
+        shown = path if len(path) <= 80 else path[:40] + "..." + path[-30:]
+        raise InputError(f"cannot open the file: {exc.strerror}", file=shown, fix="give a shorter or existing path") from None
+
+
 def cmd_plot(args) -> int:
     """PREFIX_history.png and PREFIX_frame<K>_<field>.png of a result file."""
     from .engine.output_paths import check_output_folder
     from .io.plot import plot
 
     _setup_logging(0)
+    _readable_path(args.result)
     if args.out:
         check_output_folder(Path(args.out).parent, "--out")
     for png in plot(args.result, frames=args.frames, field=args.field, view=args.view, prefix=args.out):
@@ -378,10 +391,19 @@ def cmd_verify(args) -> int:
 
 
 # ------------------------------------------------------------------------------------------------
+class _Parser(argparse.ArgumentParser):
+    """argparse with the project's form of a usage error: one line on stderr, exit 2 (no usage block)."""
+
+    def error(self, message: str) -> "NoReturn":  # type: ignore[override]
+        text = " ".join(message.split())
+        sys.stderr.write(f"error: {self.prog}: {text}; see {self.prog} --help\n")
+        sys.exit(int(ExitCode.INPUT_ERROR))
+
+
 def build_parser() -> argparse.ArgumentParser:
     from . import __version__
 
-    p = argparse.ArgumentParser(prog="peridyn", description="Peridynamics: run Peridigm and peridyn decks.")
+    p = _Parser(prog="peridyn", description="Peridynamics: run Peridigm and peridyn decks.")
     p.add_argument("--version", action="version", version=f"peridyn {__version__}")
     p.add_argument("--debug", action="store_true", help="show tracebacks")
     sub = p.add_subparsers(dest="command", required=True)
@@ -540,8 +562,6 @@ def _main(argv: list[str] | None) -> int:
         say("", "interrupted")
         return int(ExitCode.INTERRUPTED)
     except BrokenPipeError:  # `peridyn check deck | head`: the reader has gone; nothing to report
-        import os
-
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return int(ExitCode.OK)
     except MemoryError as exc:

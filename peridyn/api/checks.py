@@ -62,11 +62,24 @@ def name_text(call: str, arg: str, value: Any) -> str:
     return value
 
 
-def a_callable(call: str, arg: str, value: Any, signature: str) -> Any:
-    """``value`` when it can be called."""
+def a_callable(call: str, arg: str, value: Any, signature: str, nargs: int | None = None) -> Any:
+    """``value`` when it can be called (with ``nargs`` positional arguments, when given and its
+    signature is known)."""
     if not callable(value):
         raise ArgumentTypeError(f"{arg} must be a callable {signature}, not {type(value).__name__}", path=(call, arg),
                                 fix=f"pass a function {signature}")
+    if nargs is not None:
+        import inspect
+
+        try:
+            sig = inspect.signature(value)
+        except (TypeError, ValueError):  # a builtin without a signature: called as it is
+            return value
+        try:
+            sig.bind(*range(nargs))
+        except TypeError:
+            raise ArgumentTypeError(f"{arg} is called with {nargs} argument(s) as {signature}, but it takes {sig}", path=(call, arg),
+                                    fix=f"pass a function {signature}") from None
     return value
 
 

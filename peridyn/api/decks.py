@@ -191,6 +191,9 @@ def point_indices(call: str, arg: str, members: Any, n: int) -> np.ndarray:
         return np.nonzero(arr)[0]
     if arr.size == 0:
         return np.zeros(0, dtype=np.int64)
+    if arr.ndim > 1:
+        raise ArgumentError(f"{arg}: indices have shape {arr.shape}, expected a flat list", path=(call, arg),
+                            fix=f"give a flat list of 0-based point indices or a ({n},) bool mask")
     if arr.dtype.kind not in "iuf" or (arr.dtype.kind == "f" and not np.all(np.isfinite(arr) & (arr == np.round(arr)))):
         raise ArgumentTypeError(f"{arg} holds {arr.dtype} values that are not whole numbers", path=(call, arg),
                                 fix=f"give 0-based point indices (ints) or a ({n},) bool mask")

@@ -40,11 +40,23 @@ class _PythonValue:
     """A condition's value as a Python callable ``f(t, x) -> (k,)``, with the call signature of a
     compiled deck expression (``expr(gid, x=, y=, z=, t=)``)."""
 
-    def __init__(self, fn: Callable[[float, np.ndarray], Any]) -> None:
+    def __init__(self, fn: Callable[[float, np.ndarray], Any], call: str = "Model.add_condition") -> None:
         self.fn = fn
+        self.call = call
 
     def __call__(self, gid, *, x, y, z, t):
-        return self.fn(float(t), np.stack([x, y, z], axis=1))
+        from .checks import ArgumentError, ArgumentTypeError
+
+        out = self.fn(float(t), np.stack([x, y, z], axis=1))
+        try:
+            arr = np.asarray(out, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise ArgumentTypeError(f"value(t, x) returned {type(out).__name__} {repr(out)[:60]}, not numbers ({exc})",
+                                    path=(self.call, "value"), fix="return one number or one number per point of x") from None
+        if arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] not in (1, len(x))):
+            raise ArgumentError(f"value(t, x) returned shape {arr.shape} for {len(x)} points, expected () or ({len(x)},)",
+                                path=(self.call, "value"), fix="return one number or one number per point of x")
+        return arr
 
 
 class Model:
@@ -67,6 +79,10 @@ class Model:
         from ..engine.output import check_output_names, lock_outputs, prepare_output_dir, release_locks
         from ..engine.simulation import Simulation
 
+        for arg, value in (("output_dir", output_dir), ("directory", directory)):
+            if value is not None and not isinstance(value, (str, os.PathLike)):
+                raise ArgumentTypeError(f"{arg} must be a folder name (str or os.PathLike), not {type(value).__name__} {value!r}",
+                                        path=("Model", arg), fix=f"give {arg} as a path")
         self.deck = build_deck(deck, directory)
         self.output_dir = Path(output_dir) if output_dir is not None else Path.cwd()
         self._locks: list = []
@@ -264,6 +280,8 @@ class Model:
             name_text(call, "name", name)
         if not callable(value):
             value = finite_number(call, "value", value) if not isinstance(value, str) else a_callable(call, "value", value, "value(t, x) -> (k,) or a number")
+        else:
+            a_callable(call, "value", value, "value(t, x) -> (k,) or a number", nargs=2)
         label = name or f"python {type} {len(sim.conditions) + 1}"
         if not isinstance(coordinate, str):
             raise ArgumentTypeError(f"coordinate must be 'x', 'y' or 'z', not {coordinate!r}", path=(call, "coordinate"), fix="give 'x', 'y' or 'z'")
@@ -302,6 +320,8 @@ class Model:
         elif isinstance(nodes, Mapping):
             mesh = np.nonzero(self._select(nodes, call, "nodes"))[0]
         else:
+            if callable(nodes):
+                a_callable(call, "nodes", nodes, "nodes(x) -> (n,) bool mask or indices", nargs=1)
             raw = nodes(self.sim.discretization.x.copy()) if callable(nodes) else nodes
             mesh = point_indices(call, "nodes", raw, self.num_points)
         local = sim.local_of_mothership[mesh]
@@ -313,7 +333,7 @@ class Model:
         ``fn`` may return a number or an array (e.g. a field in mesh order); it is copied."""
         call = "Model.add_compute"
         name_text(call, "name", name)
-        a_callable(call, "fn", fn, "fn(model) -> number or array")
+        a_callable(call, "fn", fn, "fn(model) -> number or array", nargs=1)
         every = whole_number(call, "every", every, 1)
         self._computes[name] = (fn, every)
         self._history.setdefault(name, ([], []))

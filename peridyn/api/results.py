@@ -29,6 +29,11 @@ class Results:
     def __init__(self, path: str | os.PathLike) -> None:
         from ..io.exodus_reader import combine_components, component_groups, read_results
 
+        if not isinstance(path, (str, os.PathLike)):
+            from .checks import ArgumentTypeError
+
+            raise ArgumentTypeError(f"path must be a file name (str or os.PathLike), not {type(path).__name__} {path!r}",
+                                    path=("peridyn.read", "path"), fix="give the .e (or history .h) file a run wrote")
         self.path = Path(path)
         if not self.path.is_file():
             raise InputError("the result file does not exist", file=str(self.path),

@@ -124,6 +124,10 @@ class Study:
         names = list(axes)
         for name in names:
             values = axes[name]
+            if isinstance(values, (set, frozenset)):  # no order: the runs' numbering would change from one session to the next
+                raise ArgumentTypeError(f"{name}: the values of an axis are a list, not a set (a set has no order, so the runs "
+                                        "would be numbered differently in another session)", path=("Study.grid", name),
+                                        fix=f"give {name}=[value, ...] in the order the runs are numbered")
             if isinstance(values, (str, bytes, Mapping)) or not isinstance(values, Iterable):
                 raise ArgumentTypeError(f"{name}: the values of an axis are a list, not {type(values).__name__} {values!r}",
                                         path=("Study.grid", name), fix=f"give {name}=[value, ...] (a list of one value for a fixed one)")

@@ -123,6 +123,14 @@ class RegionSpec(ModelParams):
     surface_layer: SurfaceLayerSpec | None = Field(None, alias="Surface Layer", description="points within Thickness of the free surface")
     all: Literal[True] | None = Field(None, alias="All", description="true: every point")
 
+    @field_validator("all", mode="before")
+    @classmethod
+    def _all_is_true(cls, v):
+        # Literal[True] compares with ==, so 1 and 1.0 passed as true; the deck must say true
+        if v is not None and v is not True:
+            raise ValueError(f"All must be true (every point), got {v!r}; write All: true, or leave the region out")
+        return v
+
     @field_validator("expression")
     @classmethod
     def _expression(cls, v):

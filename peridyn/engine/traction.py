@@ -119,11 +119,12 @@ class SurfaceTraction(BoundaryCondition):
         if np.any(owner < 0):
             raise InputError(f"the node set {p.node_set!r} has no free surface to press on", path=where,
                              fix="a pressure needs a body with a free surface")
-        faces = -p.pressure * surf.face_vectors()
+        unit_faces = surf.face_vectors()
+        faces = -p.pressure * unit_faces
         owners, inverse = np.unique(owner, return_inverse=True)
         weight = np.bincount(inverse, weights=volume[members])  # volume of the node set's points each surface point loads
         force = faces[owners]
-        if not np.any(force):
+        if not np.any(unit_faces[owners]):  # judged on the faces, not the force: a pressure of 0 is a legal load
             raise InputError(f"the points of node set {p.node_set!r} are nearest to no free face a pressure could push on "
                              "(or their faces cancel)", path=where, fix="use a node set on the body's surface, e.g. a Surface Layer")
         self.total = force.sum(axis=0)

@@ -158,3 +158,31 @@ def test_convert_round_trip(tmp_path, capsys):
 
 def test_exit_codes_are_an_intenum():
     assert int(ExitCode.INPUT_ERROR) == 2 and ExitCode.OK == 0
+
+
+@pytest.mark.parametrize("argv, names", [(["check", "deck.yaml", "--bogus"], "unrecognized arguments: --bogus"),
+                                         (["run", "deck.yaml", "--device", "tpu"], "argument --device: invalid choice"),
+                                         (["verify", "--problems"], "argument --problems: expected at least one argument"),
+                                         (["fragments", "x.e", "--top", "abc"], "argument --top: invalid int value"),
+                                         (["run"], "the following arguments are required: deck")])
+def test_a_usage_error_is_one_line_exit_2(argv, names, capsys):
+    """Found by benchmarks/surface_campaign.py: argparse printed its usage block and a line without 'error: ' first."""
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert len(err.splitlines()) == 1 and err.startswith("error: peridyn") and names in err and "; see peridyn" in err
+
+
+def test_no_limits_does_not_break_the_command(deck, capsys):
+    """Found by benchmarks/surface_campaign.py: `peridyn check DECK --no-limits` was an internal error
+    (UnboundLocalError: a later `import os` in main made os local)."""
+    assert main(["check", str(deck), "--no-limits"]) == 0
+
+
+def test_plot_of_a_name_too_long_is_one_line_exit_2(tmp_path, monkeypatch, capsys):
+    """Found by benchmarks/surface_campaign.py: an input name over the system's limit was an internal error."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["plot", "n" * 300 + ".e"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.splitlines()) == 1 and "File name too long" in err and len(err) < 200

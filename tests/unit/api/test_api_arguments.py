@@ -258,3 +258,44 @@ def test_bad_study_grid_and_processes_are_named(tmp_path) -> None:
             study.run(processes=processes)
         assert info.value.path == ("Study.run", "processes")
     assert not (tmp_path / "s").exists()
+
+
+# found by benchmarks/surface_campaign.py ---------------------------------------------------------
+def test_callables_of_the_wrong_arity_are_named_when_added() -> None:
+    m = fresh()
+    with pytest.raises(ArgumentTypeError, match=r"Model.add_compute > fn: .*takes \(\)"):
+        m.add_compute("c", lambda: 1.0)
+    with pytest.raises(ArgumentTypeError, match=r"Model.add_condition > value"):
+        m.add_condition("Body Force", LEFT, lambda t: 1.0)
+    with pytest.raises(ArgumentTypeError, match=r"Model.add_condition > nodes"):
+        m.add_condition("Body Force", lambda: None, 1.0)
+    m.close()
+
+
+@pytest.mark.parametrize("value, error", [(lambda t, x: "s", ArgumentTypeError), (lambda t, x: np.zeros(7), ArgumentError),
+                                          (lambda t, x: np.zeros((len(x), 2)), ArgumentError)])
+def test_a_value_callable_returning_no_numbers_is_named(value, error) -> None:
+    m = fresh()
+    m.add_condition("Body Force", LEFT, value)
+    with pytest.raises(error, match=r"Model.add_condition > value: value\(t, x\) returned"):
+        m.step(2)
+    m.close()
+
+
+def test_nodes_as_a_two_dimensional_index_array_is_refused() -> None:
+    m = fresh()
+    with pytest.raises(ArgumentError, match=r"Model.add_condition > nodes: .*indices have shape \(1, 2\)"):
+        m.add_condition("Body Force", np.array([[0, 1]]), 1.0)
+    m.close()
+
+
+@pytest.mark.parametrize("path", [3, None, 2.5])
+def test_read_of_something_that_is_no_path_names_path(path) -> None:
+    with pytest.raises(ArgumentTypeError, match=r"peridyn.read > path: path must be a file name"):
+        peridyn.read(path)
+
+
+@pytest.mark.parametrize("arg", ["output_dir", "directory"])
+def test_a_folder_argument_that_is_no_path_is_named(arg) -> None:
+    with pytest.raises(ArgumentTypeError, match=rf"Model > {arg}: {arg} must be a folder name"):
+        peridyn.Model(copy.deepcopy(PLATE), write_files=False, **{arg: float("nan")})

@@ -101,3 +101,11 @@ def test_set_deck_value() -> None:
         set_deck_value(tree, "Materials/Steel/Density/x", 1.0)
     with pytest.raises(ValueError):
         peridyn.Study(BAR, [], "unused")  # no parameter set
+
+
+def test_a_grid_axis_given_as_a_set_is_refused():
+    """Found by benchmarks/surface_campaign.py: a set (unordered: run numbers would differ between sessions) was taken."""
+    from peridyn.api.checks import ArgumentTypeError
+
+    with pytest.raises(ArgumentTypeError, match=r"Study.grid > x: x: the values of an axis are a list, not a set"):
+        peridyn.Study.grid(x={1.0, 2.0})

@@ -201,6 +201,8 @@ def deck_with(tmp_path, region: str):
         ("Cylinder: {Center: [0, 0, 0], Radius: 1.0, Axis: w}", "Axis"),
         ("Expression: \"x >\"", "Expression"),
         ("All: false", "All"),
+        ("All: 1", "All must be true"),  # found by benchmarks/surface_campaign.py: 1 == True passed
+        ("All: 1.0", "All must be true"),
         ("Surface Layer: {Thickness: 0.0}", "Thickness"),
         ("Box: {Min: [0, 0], Max: [1, 1, 1]}", "at least 3 items"),
         ("Half Space: {Point: [0, 0, .nan], Normal: [1, 0, 0]}", "Point"),

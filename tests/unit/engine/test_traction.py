@@ -142,3 +142,11 @@ def test_a_traction_needs_its_thickness(tmp_path):
                 "Load": {"Type": "Surface Traction", "Node Set": "End Node Set", "Traction": [1.0, 0.0, 0.0]}})
     with pytest.raises(InputError, match="give Thickness"):
         build_simulation(tree, directory=tmp_path)
+
+
+def test_a_pressure_of_zero_on_a_surface_is_a_legal_load(tmp_path):
+    """Found by benchmarks/surface_campaign.py: Pressure 0 was refused as 'nearest to no free face'
+    (the check looked at the force, zero for p = 0, instead of at the faces)."""
+    sim = build_simulation(cylinder({"Skin Node Set": {"Surface Layer": {"Thickness": 2 * H}},
+                                     "Press": {"Type": "Surface Traction", "Node Set": "Skin Node Set", "Pressure": 0.0}}), directory=tmp_path)
+    np.testing.assert_array_equal(total_force(sim, 0.0), 0.0)
