@@ -1,7 +1,8 @@
 """``Mesh`` discretization: one peridynamic point per volume element of any mesh meshio reads.
 
 Gmsh ``.msh``, Abaqus ``.inp``, VTK ``.vtu``/``.vtk``, MED ``.med`` (needs h5py), Exodus, Nastran,
-... and gmsh ``.geo`` geometry, meshed on the fly by the gmsh Python API. meshio (and gmsh for
+... and gmsh ``.geo`` geometry, meshed on the fly by the gmsh Python API in a child process
+(:mod:`peridyn.io.geo_mesh`). meshio (and gmsh for
 ``.geo``) are optional: ``pip install "peridyn[mesh]"``; they are imported only when a deck uses
 this discretization. docs/meshes.md is the user's guide.
 
@@ -24,6 +25,7 @@ this discretization. docs/meshes.md is the user's guide.
 from __future__ import annotations
 
 import contextlib
+import importlib
 import importlib.util
 import io
 import logging
@@ -39,6 +41,7 @@ from ..core.errors import InputError, is_file, missing_file
 from ..core.interfaces import DiscretizationReader
 from ..core.params import ModelParams, ParamKeyError
 from .element_geometry import CORNERS, bad_elements, element_centroids_and_volumes
+from .geo_mesh import mesh_geo
 from .nodesets import find_input_file
 from .textfile import min_element_radius
 
@@ -51,8 +54,6 @@ _PATH = ("Discretization", "Input Mesh File")
 _VOLUME = re.compile(r"(tetra|hexahedron|wedge|pyramid)[0-9]*")
 _LOWER = re.compile(r"(vertex|line[0-9]*|triangle[0-9]*|quad[0-9]*|polygon[0-9]*)")
 _DIM_WORD = {0: "point", 1: "curve", 2: "surface"}
-#: the most tetrahedra a .geo may be meshed into (gmsh needs about a minute and gigabytes for 1e7)
-MAX_GEO_ELEMENTS = 1e7
 
 
 def _missing(module: str) -> bool:
@@ -108,63 +109,6 @@ def _fail(message: str, path: Path, fix: str | None = None) -> InputError:
     return InputError(message, file=str(path), path=_PATH, fix=fix)
 
 
-def _mesh_geo(path: Path, mesh_size: float | None, folder: Path) -> Path:
-    """Mesh a gmsh ``.geo`` file in 3-D with the gmsh API; returns the ``.msh`` written to ``folder``."""
-    gmsh = _import("gmsh", path)
-
-    out = folder / (path.stem + ".msh")
-    ours = not gmsh.isInitialized()  # a caller's own gmsh session is left running, its models untouched
-    if ours:
-        gmsh.initialize(readConfigFiles=False, interruptible=False)
-    saved = {k: gmsh.option.getNumber(k) for k in ("General.Terminal", "General.NumThreads", "Mesh.MeshSizeMax")}
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.option.setNumber("General.NumThreads", 1)  # the same mesh on every machine and rank
-        gmsh.logger.start()
-        try:
-            gmsh.model.add(f"peridyn {path.stem}")
-            gmsh.merge(str(path))
-            if mesh_size is not None:
-                gmsh.option.setNumber("Mesh.MeshSizeMax", mesh_size)
-            _check_size(gmsh, path)
-            gmsh.model.mesh.generate(3)
-            gmsh.write(str(out))
-        except InputError:
-            raise
-        except Exception as exc:  # gmsh raises plain Exceptions; its log says why
-            errors = [m for m in gmsh.logger.get() if m.startswith("Error")]
-            reason = (errors[0] if errors else str(exc)).replace(str(path), path.name)
-            raise _fail(f"gmsh could not mesh {path.name!r} ({reason[:120]})", path, "check the .geo file with gmsh") from None
-        finally:
-            gmsh.logger.stop()
-            if not ours:
-                gmsh.model.remove()  # ours, the current one
-    finally:
-        if ours:
-            gmsh.finalize()
-        else:
-            for key, value in saved.items():
-                gmsh.option.setNumber(key, value)
-    return out
-
-
-def _check_size(gmsh, path: Path) -> None:
-    """Refuse a .geo whose Mesh.MeshSizeMax would give more than MAX_GEO_ELEMENTS tetrahedra, before
-    gmsh spends minutes and gigabytes on them: about the bounding box over the volume h^3/(6 sqrt 2)
-    of a regular tetrahedron of edge h (an overestimate: the part is inside its box)."""
-    size = gmsh.option.getNumber("Mesh.MeshSizeMax")
-    box = gmsh.model.getBoundingBox(-1, -1)
-    extent = [max(box[3 + d] - box[d], 0.0) for d in range(3)]
-    if not 0.0 < size < 1e20:  # gmsh's default: the sizes at the geometry's points decide
-        return
-    estimate = 6.0 * np.sqrt(2.0) * extent[0] * extent[1] * extent[2] / size**3
-    if estimate > MAX_GEO_ELEMENTS:
-        raise _fail(
-            f"a mesh size of {size:g} would give up to about {estimate:.3g} tetrahedra in {path.name!r} "
-            f"(the limit is {MAX_GEO_ELEMENTS:.0e})", path, "increase 'Mesh Size' (or the .geo's Mesh.MeshSizeMax)",
-        )
-
-
 def _import(module: str, path: Path):
     """``module``, or InputError with the install command when it (or a library it needs) is missing."""
     try:
@@ -175,6 +119,23 @@ def _import(module: str, path: Path):
         raise _fail(f"mesh {path.name!r} needs {module}, which cannot be loaded ({exc})", path, INSTALL) from None
 
 
+def _has_content(path: Path) -> bool:
+    """Whether the file holds a line that is neither blank nor a ``#`` comment (meshio's text
+    readers skip such lines and never stop at the end of a file that has nothing else)."""
+    comment = False  # the line running on from the previous block is a comment
+    with open(path, "rb") as handle:
+        while block := handle.read(1 << 16):  # blocks, not lines: a binary file may have no newline
+            for k, line in enumerate(block.split(b"\n")):
+                comment = comment and k == 0
+                text = line.lstrip()
+                if comment or not text:
+                    continue
+                if not text.startswith(b"#"):
+                    return True
+                comment = True
+    return False
+
+
 def _read_meshio(path: Path):
     meshio = _import("meshio", path)
 
@@ -182,6 +143,11 @@ def _read_meshio(path: Path):
     if suffix.lower() not in meshio.extension_to_filetypes:
         known = ", ".join(sorted(set(meshio.extension_to_filetypes) | {".geo"}))
         raise _fail(f"unknown mesh format {suffix or '(no extension)'!r} of {path.name!r}", path, f"give one of: {known}")
+    companions = [path.with_suffix(s) for s in (".node", ".ele")] if suffix.lower() in (".node", ".ele") else [path]  # tetgen's pair
+    for part in companions:
+        if is_file(part) and not _has_content(part):
+            raise _fail(f"mesh file {part.name!r} is empty (no line but blank lines and # comments)", path,
+                        "regenerate or re-export the mesh")
     failure = ""
     for fmt in meshio.extension_to_filetypes[suffix.lower()]:  # e.g. .msh: ansys, then gmsh
         chatter = io.StringIO()
@@ -209,21 +175,69 @@ def read_mesh(path: Path | str, *, length_scale: float = 1.0, mesh_size: float |
 
     Raises
     ------
-    InputError: missing file, unknown format, unreadable file, no volume elements, an unsupported
-        cell type, an inverted or degenerate element, clashing group names.
+    InputError: missing file, unknown format, an empty, unreadable or malformed file, no volume
+        elements, an unsupported cell type, an inverted or degenerate element, clashing group
+        names; for a .geo, everything :func:`peridyn.io.geo_mesh.mesh_geo` refuses.
     """
     path = Path(path)
     if not is_file(path):
         raise _fail(missing_file(path, "mesh file"), path, "check the file name; relative names are relative to the deck's folder")
     if path.suffix.lower() == ".geo":
         with tempfile.TemporaryDirectory(prefix="peridyn-geo-") as folder:
-            mesh = _read_meshio(_mesh_geo(path, mesh_size, Path(folder)))
+            made = mesh_geo(path, mesh_size, Path(folder))
+            try:
+                mesh = _read_meshio(made)
+            except InputError as exc:  # name the .geo, not a temporary file
+                raise _fail(f"the mesh gmsh made of {path.name!r} cannot be read ({exc.message})", path,
+                            "mesh into tetrahedra, hexahedra, prisms or pyramids of an order meshio knows") from None
     else:
         mesh = _read_meshio(path)
     return _points(mesh, path, length_scale)
 
 
+def _check_structure(mesh, path: Path) -> list[np.ndarray]:
+    """The connectivity of each cell block as an (n, k) int64 array; InputError for what a
+    reader returns from an empty, truncated or garbled file: no nodes, coordinates that are not
+    numbers, cell blocks or cell data that do not fit together."""
+    def malformed(what: str) -> InputError:
+        return _fail(f"mesh file {path.name!r} is malformed: {what}", path, "regenerate or re-export the mesh")
+
+    try:
+        pts = np.asarray(mesh.points, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise malformed("its node coordinates are not numbers") from None
+    if pts.size == 0:
+        raise _fail(f"mesh file {path.name!r} has no nodes (an empty or truncated file?)", path, "regenerate or re-export the mesh")
+    if pts.ndim not in (1, 2) or (pts.ndim == 2 and pts.shape[1] == 0):
+        raise malformed(f"its node coordinates have the shape {pts.shape}")
+    conns = []
+    physical = mesh.cell_data.get("gmsh:physical")
+    if physical is not None and len(physical) != len(mesh.cells):
+        raise malformed(f"its gmsh:physical tags are given for {len(physical)} of {len(mesh.cells)} cell blocks")
+    for b, block in enumerate(mesh.cells):
+        try:
+            conn = np.asarray(block.data, dtype=np.int64)
+        except (TypeError, ValueError, OverflowError):
+            raise _fail(f"unsupported cell type {block.type!r} in {path.name!r} (cells of varying size)", path,
+                        "use tetra, hexahedron, wedge or pyramid elements (any order)") from None
+        if conn.size and (conn.ndim != 2 or conn.shape[1] == 0):
+            raise malformed(f"its {block.type} cells have the shape {conn.shape}")
+        conn = conn.reshape(len(conn), -1) if conn.size else conn.reshape(0, 1)
+        if physical is not None and np.asarray(physical[b]).size != len(conn):
+            raise malformed(f"cell block {b + 1} has {len(conn)} {block.type} cells but {np.asarray(physical[b]).size} gmsh:physical tags")
+        for name, rows in mesh.cell_sets.items() if physical is None else ():
+            if name.startswith("gmsh:"):
+                continue
+            if b < len(rows) and rows[b] is not None and len(rows[b]):
+                r = np.asarray(rows[b])
+                if not np.issubdtype(r.dtype, np.integer) or r.min() < 0 or r.max() >= len(conn):
+                    raise malformed(f"cell set {name!r} refers to a cell that block {b + 1} does not have")
+        conns.append(conn)
+    return conns
+
+
 def _points(mesh, path: Path, scale: float) -> Discretization:  # noqa: C901 - one pass over the cell blocks
+    block_conns = _check_structure(mesh, path)
     coords = np.zeros((len(mesh.points), 3))
     pts = np.asarray(mesh.points, dtype=np.float64).reshape(len(mesh.points), -1)
     coords[:, : min(3, pts.shape[1])] = pts[:, :3] * scale
@@ -238,7 +252,7 @@ def _points(mesh, path: Path, scale: float) -> Discretization:  # noqa: C901 - o
     first = 0
     for b, block in enumerate(mesh.cells):
         kind = block.type
-        conn = np.asarray(block.data, dtype=np.int64)
+        conn = block_conns[b]
         if len(conn) == 0:
             continue
         if conn.min() < 0 or conn.max() >= len(coords):
