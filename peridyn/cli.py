@@ -373,6 +373,11 @@ def cmd_plot(args) -> int:
     _readable_path(args.result)
     if args.out:
         check_output_folder(Path(args.out).parent, "--out")
+        name = Path(args.out).name
+        limit = os.pathconf(str(Path(args.out).parent), "PC_NAME_MAX") if Path(args.out).parent.is_dir() else 255
+        if len(os.fsencode(name)) + 40 > limit:  # PREFIX_frame<K>_<field>.png must fit the folder's name limit
+            raise InputError(f"--out prefix {name[:40]}... is {len(os.fsencode(name))} bytes; the pictures' names would pass the "
+                             f"{limit}-byte limit of a file name", file=args.result, fix="give a shorter --out prefix")
     for png in plot(args.result, frames=args.frames, field=args.field, view=args.view, prefix=args.out):
         print(f"wrote {png}")
     return ExitCode.OK

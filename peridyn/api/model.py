@@ -79,6 +79,10 @@ class Model:
         from ..engine.output import check_output_names, lock_outputs, prepare_output_dir, release_locks
         from ..engine.simulation import Simulation
 
+        for arg, value in (("backend", backend), ("device", device)):
+            if value is not None and not isinstance(value, str):
+                raise ArgumentTypeError(f"{arg} must be a name (str) or None, not {type(value).__name__} {value!r}", path=("Model", arg),
+                                        fix=f"give {arg} as text, e.g. " + ("'numba'" if arg == "backend" else "'cpu' or 'gpu'"))
         for arg, value in (("output_dir", output_dir), ("directory", directory)):
             if value is not None and not isinstance(value, (str, os.PathLike)):
                 raise ArgumentTypeError(f"{arg} must be a folder name (str or os.PathLike), not {type(value).__name__} {value!r}",

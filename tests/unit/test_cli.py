@@ -186,3 +186,12 @@ def test_plot_of_a_name_too_long_is_one_line_exit_2(tmp_path, monkeypatch, capsy
     assert main(["plot", "n" * 300 + ".e"]) == 2
     err = capsys.readouterr().err
     assert len(err.splitlines()) == 1 and "File name too long" in err and len(err) < 200
+
+
+def test_plot_out_prefix_too_long_is_one_line_exit_2(tmp_path, monkeypatch, capsys):
+    """Found by benchmarks/surface_campaign.py: a --out prefix past the file-name limit was an internal error."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "r.e").write_bytes(b"")
+    assert main(["plot", "r.e", "--out", "n" * 300]) == 2
+    err = capsys.readouterr().err
+    assert len(err.splitlines()) == 1 and "--out prefix" in err

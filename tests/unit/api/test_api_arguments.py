@@ -299,3 +299,10 @@ def test_read_of_something_that_is_no_path_names_path(path) -> None:
 def test_a_folder_argument_that_is_no_path_is_named(arg) -> None:
     with pytest.raises(ArgumentTypeError, match=rf"Model > {arg}: {arg} must be a folder name"):
         peridyn.Model(copy.deepcopy(PLATE), write_files=False, **{arg: float("nan")})
+
+
+@pytest.mark.parametrize("arg", ["backend", "device"])
+def test_backend_and_device_that_are_no_text_are_named(arg) -> None:
+    """Found by benchmarks/surface_campaign.py: Model(device=[]) was an AttributeError."""
+    with pytest.raises(ArgumentTypeError, match=rf"Model > {arg}: {arg} must be a name"):
+        peridyn.Model(copy.deepcopy(PLATE), write_files=False, **{arg: []})
