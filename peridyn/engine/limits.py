@@ -28,15 +28,14 @@ from __future__ import annotations
 
 import logging
 import math
-import os
 
 import numpy as np
 
+from ..core.resources import NO_LIMITS_ENV as ENV, available_memory, human_bytes as _human_bytes, limits_off
 from ..core.errors import InputError
 
 log = logging.getLogger("peridyn.engine")
 
-ENV = "PERIDYN_NO_LIMITS"
 #: fields, ids and orderings of one point, with headroom (cube40: about 600 bytes measured)
 BYTES_PER_POINT = 1024
 #: int32 neighbor, float64 bond length and damage, reverse and transposed indices, and the
@@ -63,35 +62,6 @@ TANGENT_SAMPLE = 256
 MAX_STEPS = 1.0e9
 MAX_SECONDS = 30 * 24 * 3600.0
 WARN_SECONDS = 3600.0
-
-
-def limits_off() -> bool:
-    return os.environ.get(ENV, "").strip().lower() not in ("", "0", "false", "no")
-
-
-def available_memory() -> float:
-    """Bytes of memory available to this process now (MemAvailable; total memory if unknown)."""
-    try:
-        with open("/proc/meminfo", encoding="ascii") as handle:
-            for line in handle:
-                if line.startswith("MemAvailable:"):
-                    return float(line.split()[1]) * 1024.0
-    except OSError:
-        pass
-    try:
-        return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
-    except (ValueError, OSError, AttributeError):
-        return math.inf
-
-
-def _human_bytes(n: float) -> str:
-    if not math.isfinite(n):
-        return "an unbounded amount"
-    for unit in ("B", "KiB", "MiB", "GiB", "TiB", "PiB"):
-        if n < 1024.0 or unit == "PiB":
-            return f"{n:.3g} {unit}"
-        n /= 1024.0
-    return f"{n:.3g} PiB"  # pragma: no cover
 
 
 def human_seconds(s: float) -> str:

@@ -29,6 +29,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator
 
+from ..core.resources import NO_LIMITS_ENV, available_memory, human_bytes, limits_off
 from ..core.errors import InputError, PeridynError
 from .gmsh_worker import ESTIMATE, RESULT
 
@@ -50,7 +51,6 @@ POLL_SECONDS = 0.05
 #: seconds between two "still meshing" notes
 NOTE_SECONDS = 30.0
 #: the same switch as peridyn.engine.limits.ENV (io may not import engine)
-NO_LIMITS_ENV = "PERIDYN_NO_LIMITS"
 #: Merge and Include nested deeper than this are refused (gmsh runs out of file handles)
 MAX_NESTING = 64
 #: extensions gmsh merges as meshes, CAD or post-processing data, not as scripts
@@ -70,34 +70,6 @@ class MeshingInterrupted(PeridynError):
 
 def _fail(message: str, path: Path, fix: str | None = None, line: int | None = None) -> InputError:
     return InputError(message, file=str(path), path=_PATH, fix=fix, line=line)
-
-
-def _limits_off() -> bool:
-    return os.environ.get(NO_LIMITS_ENV, "").strip().lower() not in ("", "0", "false", "no")
-
-
-def _available_memory() -> float:
-    """Bytes of memory available now (MemAvailable; total memory if unknown), as
-    peridyn.engine.limits.available_memory reads it."""
-    try:
-        with open("/proc/meminfo", encoding="ascii") as handle:
-            for line in handle:
-                if line.startswith("MemAvailable:"):
-                    return float(line.split()[1]) * 1024.0
-    except OSError:
-        pass
-    try:
-        return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
-    except (ValueError, OSError, AttributeError):
-        return math.inf
-
-
-def _human_bytes(n: float) -> str:
-    for unit in ("B", "KiB", "MiB", "GiB", "TiB"):
-        if n < 1024.0 or unit == "TiB":
-            return f"{n:.3g} {unit}"
-        n /= 1024.0
-    return f"{n:.3g} TiB"  # pragma: no cover
 
 
 def _rss(pid: int) -> float:
@@ -184,7 +156,7 @@ def _kill(proc: subprocess.Popen) -> None:
 def _too_large(estimate: dict, limit: float, memory: float, path: Path) -> str:
     words = f"a mesh size of {estimate['size']:g} ({estimate['source']}) would give up to about {estimate['elements']:.3g} tetrahedra in {path.name!r}"
     if limit < MAX_GEO_ELEMENTS:
-        return f"{words}, about {_human_bytes(estimate['elements'] * GMSH_BYTES_PER_ELEMENT)} for gmsh, more than the {_human_bytes(memory)} of memory available"
+        return f"{words}, about {human_bytes(estimate['elements'] * GMSH_BYTES_PER_ELEMENT)} for gmsh, more than the {human_bytes(memory)} of memory available"
     return f"{words} (the limit is {MAX_GEO_ELEMENTS:.0e})"
 
 
@@ -205,8 +177,8 @@ def mesh_geo(path: Path, mesh_size: float | None, folder: Path) -> Path:
         raise _fail(f"the gmsh script {path.name!r} is empty (0 bytes)", path, "write the geometry into it, or give the right file")
     check_includes(path)
     out = folder / (path.stem + ".msh")
-    refuse = not _limits_off()
-    memory = _available_memory()
+    refuse = not limits_off()
+    memory = available_memory()
     limit = min(MAX_GEO_ELEMENTS, MEMORY_SHARE * memory / GMSH_BYTES_PER_ELEMENT)
     request = folder / "request.json"
     request.write_text(json.dumps({"geo": str(path), "out": str(out), "mesh_size": mesh_size,
@@ -225,7 +197,7 @@ def mesh_geo(path: Path, mesh_size: float | None, folder: Path) -> Path:
     _log.debug("gmsh meshed %s in %.2f s", path.name, time.monotonic() - start)
     if killed_for_memory:
         raise _fail(
-            f"gmsh used more than {_human_bytes(MEMORY_SHARE * memory)} meshing {path.name!r} (of the {_human_bytes(memory)} "
+            f"gmsh used more than {human_bytes(MEMORY_SHARE * memory)} meshing {path.name!r} (of the {human_bytes(memory)} "
             "available) and was stopped", path,
             "use a larger element size (transfinite or extruded layer counts and a 'Mesh 3;' in the script count too), "
             f"or set {NO_LIMITS_ENV}=1 (peridyn run --no-limits) if you mean it")

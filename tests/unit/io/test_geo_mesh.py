@@ -264,7 +264,7 @@ def test_a_minimum_size_lifts_the_estimate(tmp_path):
 
 def test_the_limit_follows_the_memory(tmp_path, monkeypatch):
     (tmp_path / "part.geo").write_text(BOX)
-    monkeypatch.setattr(geo_mesh, "_available_memory", lambda: 200e6)  # room for about 1.8e5 tetrahedra
+    monkeypatch.setattr(geo_mesh, "available_memory", lambda: 200e6)  # room for about 1.8e5 tetrahedra
     monkeypatch.delenv("PERIDYN_NO_LIMITS", raising=False)
     with pytest.raises(InputError, match=r"would give up to about 2.12e\+06 tetrahedra in 'part.geo', about 2.02 GiB for gmsh, "
                        r"more than the 191 MiB of memory available; increase 'Mesh Size'"):
@@ -289,7 +289,7 @@ def test_meshing_past_the_memory_is_stopped(tmp_path, monkeypatch):
     """``Mesh 3;`` in the script meshes while gmsh reads it, before any estimate: the memory
     watch stops it."""
     (tmp_path / "part.geo").write_text('SetFactory("OpenCASCADE");\nBox(1) = {0, 0, 0, 1, 1, 1};\nMesh.MeshSizeMax = 0.02;\nMesh 3;\n')
-    monkeypatch.setattr(geo_mesh, "_available_memory", lambda: 150e6)
+    monkeypatch.setattr(geo_mesh, "available_memory", lambda: 150e6)
     monkeypatch.delenv("PERIDYN_NO_LIMITS", raising=False)
     with pytest.raises(InputError, match=r"gmsh used more than 129 MiB meshing 'part.geo' \(of the 143 MiB available\) and was stopped"):
         read_mesh(tmp_path / "part.geo")
