@@ -441,13 +441,27 @@ class Checkpoints:
             if sim.comm.is_root:
                 partial, final = w.partial_path, w.path
                 source = partial if partial.is_file() else final
+                if source == final and final.is_file():
+                    # append to a copy: NAME.e stays as it was until the continued run ends (an input error
+                    # found later in the set-up, or a crash, must not cost the earlier result)
+                    import shutil
+
+                    tmp = partial.with_name(f".{partial.name}.{os.getpid()}.tmp")
+                    try:
+                        shutil.copy2(final, tmp)
+                        os.replace(tmp, partial)
+                    except OSError as exc:
+                        tmp.unlink(missing_ok=True)
+                        raise InputError(f"cannot copy {final.name} to append to it: {exc.strerror}", file=sim.deck.file,
+                                         path=("--restart",), fix="free space in the output folder") from None
+                    source = partial
                 try:
                     held = keep_steps(source, w.frames)
                 except (OSError, ValueError) as exc:
-                    raise InputError(f"cannot continue {source.name}: {exc}", file=sim.deck.file, path=("--restart",),
+                    if source == partial and final.is_file():
+                        partial.unlink(missing_ok=True)
+                    raise InputError(f"cannot continue {final.name}: {exc}", file=sim.deck.file, path=("--restart",),
                                      fix="give the --output-dir of the run that wrote the checkpoint") from None
-                if source == final:
-                    os.replace(final, partial)
                 if held > w.frames:
                     log.info("%s: %d frame(s) written after the checkpoint dropped", partial.name, held - w.frames)
             w.resume_frames = w.frames

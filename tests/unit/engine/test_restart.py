@@ -442,3 +442,33 @@ def test_check_describes_the_restart_section(tmp_path, capsys):
     assert main(["check", str(deck)]) == ExitCode.OK
     out = capsys.readouterr().out
     assert "restart: checkpoints in restart/ every 50 Verlet step(s), after each solver section and on SIGTERM/SIGINT, the latest 3 kept" in out
+
+
+def test_an_input_error_found_after_the_checkpoint_is_read_leaves_the_result_alone(tmp_path, monkeypatch):
+    """Found by benchmarks/surface_campaign.py: a checkpoint whose Volume makes the stable step 0
+    (an input error after the outputs were restored) lost NAME.e: it had been trimmed and renamed to
+    NAME.partial.e for appending. Now a copy is appended to; NAME.e is untouched until the run ends."""
+    import hashlib
+    import sys
+
+    import numpy as np
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "benchmarks"))
+    from surface_campaign.decks import RESTART, base, write_deck
+    from peridyn.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    tree = base()
+    tree["Restart"] = dict(RESTART)
+    write_deck(tmp_path, tree)
+    assert main(["run", "deck.yaml", "--no-progress"]) == 0
+    digest = hashlib.sha256((tmp_path / "base.e").read_bytes()).hexdigest()
+    ck = tmp_path / "restart" / "deck.000.0000000010.npz"
+    z = dict(np.load(ck))
+    z["np1/Volume"][3] = 1e308
+    np.savez(ck, **z)
+    assert main(["run", "deck.yaml", "--no-progress", "--restart", str(ck)]) == 2
+    assert hashlib.sha256((tmp_path / "base.e").read_bytes()).hexdigest() == digest
+    # and a good continuation still replaces it with the continued run's frames
+    assert main(["run", "deck.yaml", "--no-progress", "--restart", "restart/deck.000.0000000005.npz"]) == 0
+    assert not (tmp_path / "base.partial.e").exists()
