@@ -569,6 +569,23 @@ def _main(argv: list[str] | None) -> int:
     except BrokenPipeError:  # `peridyn check deck | head`: the reader has gone; nothing to report
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return int(ExitCode.OK)
+    except OSError as exc:
+        import errno
+
+        if debug or exc.errno not in (errno.ENAMETOOLONG, errno.ELOOP, errno.EILSEQ):
+            if debug:
+                raise
+            say("internal error", f"{type(exc).__name__}: {exc} (run with --debug for the traceback; please report it)")
+            return int(ExitCode.FAILURE)
+        name = str(exc.filename or "")
+        shown = name if len(name) <= 80 else name[:40] + "..." + name[-30:]
+        say("error", f"{shown}: {exc.strerror}; give a shorter path (each name at most 255 bytes) or one without link loops")
+        return int(ExitCode.INPUT_ERROR)
+    except UnicodeEncodeError as exc:
+        if debug:
+            raise
+        say("error", f"a path holds characters that are not UTF-8 ({exc.object[exc.start:exc.end]!a}); rename it with UTF-8 characters")
+        return int(ExitCode.INPUT_ERROR)
     except MemoryError as exc:
         if debug:
             raise

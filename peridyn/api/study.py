@@ -163,7 +163,11 @@ class Study:
         ``status.json``) and the others go on; Ctrl-C stops the study, and the next ``run``
         picks up from the runs not done."""
         processes = whole_number("Study.run", "processes", processes, 1)
-        self.folder.mkdir(parents=True, exist_ok=True)
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:  # a file in the way (FileExistsError), no permission, a name too long
+            raise ArgumentError(f"folder {str(self.folder)!r} cannot be a folder: {exc.strerror}", path=("Study", "folder"),
+                                fix="give a folder (it is created with its parents) that is not a file") from None
         todo = self.pending()
         log.info("study %s: %d run(s), %d to do", self.folder, len(self.parameters), len(todo))
         jobs = [(self.tree, str(self.directory), self.parameters[k], str(self.run_folder(k)), self.extract) for k in todo]

@@ -1,5 +1,6 @@
 """The command line: exit codes, one-line errors, no traceback, output kept safe."""
 import json
+import os
 import subprocess
 import sys
 import textwrap
@@ -195,3 +196,14 @@ def test_plot_out_prefix_too_long_is_one_line_exit_2(tmp_path, monkeypatch, caps
     assert main(["plot", "r.e", "--out", "n" * 300]) == 2
     err = capsys.readouterr().err
     assert len(err.splitlines()) == 1 and "--out prefix" in err
+
+
+def test_paths_too_long_or_not_utf8_are_one_line_exit_2(deck, tmp_path, capsys):
+    """Found by benchmarks/surface_campaign.py: schema -o, new-plugin --directory and fragments with a
+    name past the system's limit, and run --output-dir with a name that is not UTF-8, were internal errors."""
+    long_path = "/".join(["x" * 200] * 30)
+    assert main(["schema", "-o", long_path + ".json"]) == 2
+    assert main(["run", str(deck), "--no-progress", "--output-dir", os.fsdecode(b"d\xff\xfeck")]) == 2
+    err = capsys.readouterr().err.splitlines()
+    errors = [ln for ln in err if ln.startswith("error")]
+    assert len(errors) == 2 and "File name too long" in errors[0] and len(errors[0]) < 200 and "not UTF-8" in errors[1]

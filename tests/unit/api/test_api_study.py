@@ -109,3 +109,14 @@ def test_a_grid_axis_given_as_a_set_is_refused():
 
     with pytest.raises(ArgumentTypeError, match=r"Study.grid > x: x: the values of an axis are a list, not a set"):
         peridyn.Study.grid(x={1.0, 2.0})
+
+
+def test_a_study_folder_that_is_a_file_is_named(tmp_path):
+    """Found by benchmarks/surface_campaign.py: a FileExistsError from mkdir."""
+    from peridyn.api.checks import ArgumentError
+
+    (tmp_path / "afile").write_text("x")
+    study = peridyn.Study(str(Path(__file__).resolve().parents[3] / "examples" / "quickstart.yaml"),
+                          [{"Materials/Glass/Density": 2440.0}], tmp_path / "afile")
+    with pytest.raises(ArgumentError, match=r"Study > folder: folder .* cannot be a folder"):
+        study.run()
