@@ -78,12 +78,12 @@ def main() -> int:
         args.keep.mkdir(parents=True, exist_ok=True)
     t = time.perf_counter()
     results, setup_s, run_s = sc.campaign(args.cases, args.seed, args.jobs, args.families, args.keep, progress=True)
-    text = table(results, setup_s, run_s, args)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(text)
-    if args.json:
+    if args.json:  # first: json escapes every name (case names may hold non-UTF-8 file names)
         args.json.write_text(json.dumps([{"family": c.family, "case": c.name, "expect": c.expect, "class": o.klass, "rc": o.rc,
                                           "seconds": o.seconds, "flags": o.flags, "line": o.line} for c, o in results], indent=1))
+    text = table(results, setup_s, run_s, args).encode("utf-8", "backslashreplace").decode("utf-8")
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(text, encoding="utf-8")
     print(text)
     print(f"total {time.perf_counter() - t:.0f} s", file=sys.stderr)
     return 0

@@ -55,7 +55,7 @@ def gen_cli(rng: random.Random, fx: Fixtures) -> Case:
         opt = rng.choice(("-o", "--output", "--reference"))
         what, p = rng.choice(_path_variants(".json") + [("good", "out.json"), ("new dir", "newdir/out.json")])
         argv = ["schema", opt, p]
-        expect = "valid" if what in ("good", "dev_null", "missing") else ("any" if what in ("new dir", "dash") else "invalid")
+        expect = "valid" if what in ("good", "missing") else ("any" if what in ("new dir", "dash", "empty", "dev_null") else "invalid")
         what = f"{opt} {what}"
     elif cmd == "fragments":
         r = rng.random()
@@ -76,7 +76,7 @@ def gen_cli(rng: random.Random, fx: Fixtures) -> Case:
         else:
             what, p = rng.choice(_path_variants(".yaml") + [("good", "out.yaml"), ("same as input", "in.xml"), ("new dir", "nd/out.yaml")])
             argv = ["convert", "in.xml", p]
-            expect = "valid" if what in ("good", "dev_null", "missing") else ("any" if what in ("new dir", "dash") else "invalid")
+            expect = "valid" if what in ("good", "missing") else ("any" if what in ("new dir", "dash", "dev_null") else "invalid")
         what = f"{'in' if r < 0.5 else 'out'} {what}"
     elif cmd == "new-plugin":
         name = rng.choice(("good_name", "1abc", "", "a-b", "../escape", "import", "class", LONG, NON_UTF8, "a b", "existing",
@@ -166,7 +166,7 @@ def gen_api(rng: random.Random, fx: Fixtures) -> Case:
     elif call == "Model_opts":
         opt = rng.choice(("output_dir", "write_files", "progress", "backend", "device", "directory"))
         v = rng.choice([3, "afile", "afile/x", "", None, "nope", "tpu", NAN, [], True, "/dev/null"])
-        arg, desc = opt, f"Model({opt}={_r(v)})"
+        arg, desc = ("folder" if opt in ("output_dir", "directory") and isinstance(v, str) else opt), f"Model({opt}={_r(v)})"
         expect = "any"
 
         def fn(tmp, opt=opt, v=v):
@@ -205,7 +205,7 @@ def gen_api(rng: random.Random, fx: Fixtures) -> Case:
         else:
             val = rng.choice([np.zeros((3, 3)), np.full((160, 3), NAN), "x", np.zeros((160, 3), dtype=complex), [[1, 2]], 1.0,
                               np.zeros((160, 3)), np.array([object()] * 3), np.zeros((160, 2)), INF, np.zeros(0)])
-            arg = "name" if name not in ("Displacement", "Velocity") else "value"
+            arg = "name" if name not in ("Displacement", "Velocity") else name
             desc = f"model[{_r(name)}] = {_r(val)}"
             valid = name in ("Displacement", "Velocity") and (isinstance(val, float) and np.isfinite(val) or
                                                               isinstance(val, np.ndarray) and val.shape == (160, 3) and val.dtype == float and np.isfinite(val).all())
