@@ -6,6 +6,7 @@ combined ``coord`` array.
 """
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
@@ -94,7 +95,110 @@ def _dim(ds: netCDF4.Dataset, name: str) -> int:
     return len(ds.dimensions[name]) if name in ds.dimensions else 0
 
 
+#: netCDF-3 type sizes (nc_type 1..11: byte, char, short, int, float, double; CDF-5's unsigned and 64-bit ones)
+_NC_SIZES = {1: 1, 2: 1, 3: 2, 4: 4, 5: 4, 6: 8, 7: 1, 8: 2, 9: 4, 10: 8, 11: 8}
+_STREAMING = 0xFFFFFFFF
+
+
+class _Short(Exception):
+    """The header itself ends early."""
+
+
+def _classic_size(path: Path) -> int | None:
+    """The bytes a netCDF-3 file's header promises (the end of its last fixed variable or
+    record), None for any other format (netCDF-4/HDF5) or a streaming record count.
+    :class:`_Short` when the header is cut."""
+    with open(path, "rb") as f:
+        data = f.read(1 << 20)
+        while True:
+            try:
+                return _promised(data)
+            except _Short:
+                more = f.read(len(data))
+                if not more:
+                    raise
+                data += more
+
+
+def _promised(data: bytes) -> int | None:
+    if data[:3] != b"CDF" or len(data) < 4 or data[3] not in (1, 2, 5):
+        return None
+    version = data[3]
+    pos = 4
+    count = 8 if version == 5 else 4  # NON_NEG and nelems widths
+    offset = 4 if version == 1 else 8
+
+    def number(width: int) -> int:
+        nonlocal pos
+        if pos + width > len(data):
+            raise _Short
+        value = int.from_bytes(data[pos:pos + width], "big")
+        pos += width
+        return value
+
+    def name() -> None:
+        nonlocal pos
+        length = number(count)
+        pos += -(-length // 4) * 4
+
+    def attributes() -> None:
+        nonlocal pos
+        number(4)
+        for _ in range(number(count)):
+            name()
+            kind = number(4)
+            length = number(count) * _NC_SIZES.get(kind, 1)
+            pos += -(-length // 4) * 4
+
+    numrecs = number(count)
+    number(4)
+    dims = []
+    for _ in range(number(count)):
+        name()
+        dims.append(number(count))
+    attributes()
+    number(4)
+    fixed_end, records = 0, []
+    for _ in range(number(count)):
+        name()
+        ids = [number(count) for _ in range(number(count))]
+        attributes()
+        kind = number(4)
+        vsize = number(count)
+        begin = number(offset)
+        shape = [dims[i] if i < len(dims) else 0 for i in ids]
+        is_record = bool(ids) and shape[0] == 0
+        size = _NC_SIZES.get(kind, 1) * math.prod(shape[1:] if is_record else shape)
+        if is_record:
+            records.append((begin, size, vsize))
+        else:
+            fixed_end = max(fixed_end, begin + size)
+    if pos > len(data):
+        raise _Short
+    if not records or numrecs == _STREAMING or numrecs == 0:
+        return max(fixed_end, pos)
+    recsize = records[0][1] if len(records) == 1 else sum(v for _, _, v in records)
+    record_end = max(begin + (numrecs - 1) * recsize + size for begin, size, _ in records)
+    return max(fixed_end, record_end)
+
+
+def _check_length(path: str | Path) -> None:
+    """InputError when a netCDF-3 file is shorter than its header says (a truncated copy)."""
+    try:
+        actual = Path(path).stat().st_size
+        promised = _classic_size(Path(path))
+    except _Short:
+        raise InputError(f"truncated: {Path(path).stat().st_size} bytes end inside the netCDF header", file=str(path),
+                         fix="copy or write the file again (it was cut short)") from None
+    except OSError as e:
+        raise InputError(f"cannot read Exodus file: {e}", file=str(path)) from None
+    if promised is not None and actual < promised:
+        raise InputError(f"truncated: {actual} bytes of the {promised} its header promises", file=str(path),
+                         fix="copy or write the file again (it was cut short, as by a full disk or an interrupted copy)")
+
+
 def _open(path: str | Path) -> netCDF4.Dataset:
+    _check_length(path)
     try:
         ds = netCDF4.Dataset(str(path), "r")
     except (OSError, RuntimeError, ValueError, UnicodeError) as e:

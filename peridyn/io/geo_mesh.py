@@ -267,4 +267,9 @@ def _outcome(returncode: int, folder: Path, path: Path, said: str, limit: float,
                     path, "mesh into tetrahedra, hexahedra, prisms or pyramids (e.g. drop Mesh.Recombine3DAll)")
     if status == "no gmsh":
         raise _fail(f"mesh {path.name!r} needs gmsh, which cannot be loaded ({result['reason'][:120]})", path, INSTALL)
-    raise RuntimeError(f"the gmsh worker failed meshing {path.name}: {result.get('reason', status)}")
+    if status == "bad option":
+        raise _fail(f"{result['option']} = {result['value']:g} in {path.name!r} is outside {result['range']} (it multiplies "
+                    "gmsh's work or is no valid choice)", path, f"set {result['option']} within {result['range']} or drop it")
+    lines = [ln.strip() for ln in str(result.get("reason", status)).splitlines() if ln.strip()]
+    raise _fail(f"gmsh failed meshing {path.name!r}: {(lines[-1] if lines else status)[:200]}", path,
+                "check the .geo file with gmsh (its options and fields)")

@@ -9,7 +9,7 @@ REQUEST is a JSON file: ``geo`` (path), ``out`` (the ``.msh`` to write), ``mesh_
 deck's Mesh Size or null), ``max_elements`` (refuse above this many estimated tetrahedra; null:
 no refusal). The worker writes, atomically, ``estimate.json`` once the geometry is parsed (before
 meshing) and ``result.json`` at the end, both next to REQUEST; ``status`` in the result is one of
-``ok``, ``gmsh error``, ``no volumes``, ``too large``, ``bad elements``, ``no gmsh``, ``bug``.
+``ok``, ``gmsh error``, ``bad option``, ``no volumes``, ``too large``, ``bad elements``, ``no gmsh``, ``bug``.
 Only the standard library and gmsh are imported.
 """
 from __future__ import annotations
@@ -34,6 +34,25 @@ FIELD_SIZES = ("VIn", "VOut", "SizeMin", "SizeMax", "Size", "SizeFar",
                "V1_inner", "V1_outer", "V2_inner", "V2_outer")
 #: gmsh's volume element families that become points (gmsh's names; "Prism" is meshio's wedge)
 VOLUME_FAMILIES = ("Tetrahedron", "Hexahedron", "Prism", "Pyramid")
+#: options that multiply gmsh's work, each with the range peridyn accepts (passes, steps,
+#: algorithm numbers): beyond it meshing takes minutes to hours or gmsh misbehaves
+WORK_OPTIONS = {
+    "Mesh.Smoothing": (0, 100),
+    "Mesh.SmoothNormals": (0, 100),
+    "Mesh.SmoothCrossField": (0, 100),
+    "Mesh.Optimize": (0, 1),
+    "Mesh.OptimizeNetgen": (0, 1),
+    "Mesh.RefineSteps": (0, 100),
+    "Mesh.HighOrderIterMax": (0, 1000),
+    "Mesh.HighOrderPassMax": (0, 100),
+    "Mesh.AnisoMax": (0, 1e33),
+    "Mesh.MaxNumThreads3D": (0, 256),
+    "Mesh.ElementOrder": (1, 4),
+    "Mesh.Algorithm": ({1, 2, 3, 5, 6, 7, 8, 9, 11}, None),
+    "Mesh.Algorithm3D": ({1, 3, 4, 7, 9, 10}, None),
+}
+#: the largest element count reported (a size whose cube underflows gives this, not a division by zero)
+MAX_REPORTED = 1e300
 #: regular tetrahedra of edge h per volume h^3 (an upper bound for a mesh of size h)
 TETS_PER_CUBE = 6.0 * math.sqrt(2.0)
 
@@ -108,6 +127,31 @@ def geometry_volume(gmsh, volumes: list[tuple[int, int]]) -> float:
     return min(total, box_volume(-1, -1))
 
 
+def bad_option(gmsh) -> dict | None:
+    """The first option of WORK_OPTIONS outside its range, as the result's dict, or None."""
+    for option, (low, high) in WORK_OPTIONS.items():
+        try:
+            value = gmsh.option.getNumber(option)
+        except Exception:  # gmsh: an option this version does not have
+            continue
+        if isinstance(low, set):
+            if value not in low:
+                return {"status": "bad option", "option": option, "value": value,
+                        "range": "one of " + ", ".join(str(v) for v in sorted(low))}
+        elif not (math.isfinite(value) and low <= value <= high):
+            return {"status": "bad option", "option": option, "value": value, "range": f"{low:g} to {high:g}"}
+    return None
+
+
+def element_count(volume: float, size: float) -> float:
+    """Tetrahedra of edge ``size`` in ``volume``, at most MAX_REPORTED."""
+    try:
+        cube = size ** 3
+        return min(TETS_PER_CUBE * volume / cube, MAX_REPORTED) if cube > 0.0 else MAX_REPORTED
+    except OverflowError:
+        return MAX_REPORTED
+
+
 def first_error(gmsh, exc: Exception, geo: str) -> str:
     errors = [m for m in gmsh.logger.get() if m.startswith("Error")]
     return (errors[0] if errors else str(exc)).replace(geo, Path(geo).name)
@@ -130,13 +174,16 @@ def mesh(request: dict, estimate_report: Report) -> dict:
             gmsh.merge(geo)
             if mesh_size is not None:
                 gmsh.option.setNumber("Mesh.MeshSizeMax", mesh_size)
+            refused = bad_option(gmsh)
+            if refused is not None:
+                return refused
             volumes = gmsh.model.getEntities(3)
             if not volumes:
                 return {"status": "no volumes"}
             sized = effective_size(gmsh, mesh_size)
             estimate = {"status": "estimate", "volume": geometry_volume(gmsh, volumes)}
             if sized is not None:
-                estimate.update(size=sized[0], source=sized[1], elements=TETS_PER_CUBE * estimate["volume"] / sized[0] ** 3)
+                estimate.update(size=sized[0], source=sized[1], elements=element_count(estimate["volume"], sized[0]))
             if max_elements is not None and estimate.get("elements", 0.0) > max_elements:
                 return dict(estimate, status="too large")
             estimate_report.write(estimate)

@@ -12,7 +12,11 @@ from __future__ import annotations
 
 import importlib
 import inspect
+import json
 import re
+import signal
+import subprocess
+import sys
 import types
 from typing import Any, Callable
 
@@ -30,6 +34,49 @@ SMALL_STRAIN = 1.0e-4 * np.array([[1.0, 0.3, 0.0], [0.2, -0.5, 0.1], [0.0, 0.1, 
 #: the step of the second call (T); the first uses 0, as the run's first force evaluation does
 SMALL_STEP = 1.0e-6
 _MISSING = object()
+#: seconds the child that first imports a law and calls it once may take
+PROBE_SECONDS = 60.0
+_PROBE_DONE = "peridyn-law-probe-done"
+#: the child: import the module, call the law once (zero parameters), report that it came back;
+#: Python errors are left to the in-process checks, which word them
+_PROBE = f"""
+import json, os, sys
+sys.path[:] = json.loads(sys.argv[1])
+try:
+    import importlib
+    import numpy as np
+    law = getattr(importlib.import_module(sys.argv[2]), sys.argv[3])
+    law(np.eye(3), np.eye(3), np.zeros({STATE_SIZE}), 0.0, np.zeros(32))
+except BaseException:
+    pass
+sys.stdout.write("{_PROBE_DONE}")
+sys.stdout.flush()
+os._exit(0)
+"""
+_PROBED: set[str] = set()
+
+
+def _probe(spec: str, module_name: str, function: str) -> None:
+    """Import ``module_name`` and call the law once in a child process (once per module:function),
+    so that a module that ends the process, crashes or hangs is a :class:`LawError`."""
+    if spec in _PROBED or module_name in sys.modules:
+        return
+    fix = "fix the module so that it imports and runs without ending the process (no os._exit, no crash, no endless loop)"
+    try:
+        done = subprocess.run([sys.executable, "-c", _PROBE, json.dumps(sys.path), module_name, function],
+                              stdin=subprocess.DEVNULL, capture_output=True, timeout=PROBE_SECONDS)
+    except subprocess.TimeoutExpired:
+        raise LawError(f"module {module_name!r} of Stress Law {spec!r} did not finish importing and its first call "
+                       f"in {PROBE_SECONDS:g} s (it hangs)", fix) from None
+    if _PROBE_DONE.encode() not in done.stdout:
+        code = done.returncode
+        if code < 0:
+            name = signal.Signals(-code).name if -code in signal.Signals._value2member_map_ else "unknown"
+            what = f"crashed (signal {-code}, {name})"
+        else:
+            what = f"ended the process (exit status {code})"
+        raise LawError(f"module {module_name!r} of Stress Law {spec!r} {what} on import or its first call", fix)
+    _PROBED.add(spec)
 
 
 class LawError(ValueError):
@@ -80,6 +127,7 @@ def load_law(spec: str) -> Callable[..., Any]:
         raise LawError(f"{spec!r} is not module:function", f"name the law as module:function, e.g. {EXAMPLE}")
     if module_name.strip().startswith("."):
         raise LawError(f"module {module_name!r} of Stress Law {spec!r} is a relative name", "give the module's absolute name, e.g. mypackage.laws")
+    _probe(spec, module_name.strip(), function.strip())
     try:
         module = importlib.import_module(module_name.strip())
     except KeyboardInterrupt:
