@@ -366,21 +366,38 @@ def _readable_path(path: str) -> None:
 
 def cmd_plot(args) -> int:
     """PREFIX_history.png and PREFIX_frame<K>_<field>.png of a result file."""
-    from .engine.output_paths import check_output_folder
+    from .engine.output_paths import check_output_prefix
     from .io.plot import plot
 
     _setup_logging(0)
     _readable_path(args.result)
     if args.out:
-        check_output_folder(Path(args.out).parent, "--out")
-        name = Path(args.out).name
-        limit = os.pathconf(str(Path(args.out).parent), "PC_NAME_MAX") if Path(args.out).parent.is_dir() else 255
-        if len(os.fsencode(name)) + 40 > limit:  # PREFIX_frame<K>_<field>.png must fit the folder's name limit
-            raise InputError(f"--out prefix {name[:40]}... is {len(os.fsencode(name))} bytes; the pictures' names would pass the "
-                             f"{limit}-byte limit of a file name", file=args.result, fix="give a shorter --out prefix")
+        check_output_prefix(Path(args.out), "--out", longest_suffix=40)  # PREFIX_frame<K>_<field>.png
     for png in plot(args.result, frames=args.frames, field=args.field, view=args.view, prefix=args.out):
         print(f"wrote {png}")
     return ExitCode.OK
+
+
+#: the path and name arguments of each command: (dest, as the user writes it, what to give instead)
+_NAMED_ARGUMENTS: dict[str, tuple[tuple[str, str, str], ...]] = {
+    "run": (("deck", "DECK", "give a deck file"), ("output_dir", "--output-dir", "give a folder (or leave it out for the current one)"),
+            ("restart", "--restart", "give a checkpoint file, or --restart alone for the latest")),
+    "check": (("deck", "DECK", "give a deck file"),), "verify": (("out", "--out", "give a folder"),),
+    "schema": (("output", "-o", "give a file (or leave it out to print)"), ("reference", "--reference", "give a file")),
+    "convert": (("input", "IN", "give the Peridigm XML deck"), ("output", "OUT", "give the YAML file to write")),
+    "new-plugin": (("name", "NAME", "give the plugin's package name, e.g. my_material"), ("directory", "--directory", "give a folder")),
+    "fragments": (("result", "RESULT", "give an Exodus file a run wrote"), ("plot", "--plot", "give a PNG file")),
+    "plot": (("result", "RESULT", "give an Exodus file a run wrote"), ("out", "--out", "give a file name prefix (or leave it out)"),
+             ("field", "--field", "give an output variable (or leave it out)")),
+}
+
+
+def _refuse_empty_arguments(args) -> None:
+    """InputError naming the first argument given as an empty string (``--output-dir ""``), which
+    would otherwise mean the current folder or a file named '.'."""
+    for dest, shown, fix in _NAMED_ARGUMENTS.get(args.command, ()):
+        if getattr(args, dest, None) == "":
+            raise InputError(f"{shown} is empty", fix=fix)
 
 
 def cmd_verify(args) -> int:
@@ -546,6 +563,7 @@ def _main(argv: list[str] | None) -> int:
 
         os.environ[ENV] = "1"
     try:
+        _refuse_empty_arguments(args)
         return int(args.func(args))
     except InputError as exc:
         if debug:

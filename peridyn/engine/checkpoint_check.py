@@ -31,6 +31,16 @@ FIX = "restart from an earlier checkpoint (the Restart folder keeps the latest '
 #: fields that hold positions, motion, forces or geometry: never NaN or inf in a state a run reached
 FINITE_FIELDS = frozenset({"Model_Coordinates", "Coordinates", "Displacement", "Velocity", "Force_Density", "Contact_Force_Density",
                            "External_Force_Density", "Volume", "Horizon", "Damage", "Bond_Damage", "Temperature"})
+#: floating fields that may hold NaN or inf in a state a run reached. None: no model of peridyn
+#: keeps one there (a run that reaches NaN is stopped as unstable before a checkpoint is written,
+#: and the NaN that peridyn.testing writes into Force_Density and precompute fields is overwritten
+#: within the step), so every floating field, constant or two-step, must be finite.
+NONFINITE_FIELDS: frozenset[str] = frozenset()
+#: arrays of positions, motion and forces whose magnitude is bounded: beyond what a double can
+#: square (kinetic energy, distances) a value is a corrupt checkpoint, not a state of a run
+BOUNDED_ARRAYS = FINITE_FIELDS | {"acceleration", "contact/s", "contact/y_build"}
+#: the largest magnitude taken in a BOUNDED_ARRAYS array (its square, 1e300, is still a double)
+MAGNITUDE_LIMIT = 1e150
 #: the energy monitor's accumulators a continued Verlet section reads (numbers; stored0 may be null)
 MONITOR_NUMBERS = ("dt", "dt_estimate", "kinetic0", "shadow0", "shadow", "kinetic", "stored", "external", "constraint", "load_shadow",
                    "max_balance", "max_scale", "floor", "released", "resolution", "max_excess")
@@ -188,6 +198,11 @@ def check_checkpoint(sim, path: Path, meta: dict, arrays: dict[str, np.ndarray],
             raise refusal(path, f"{key} has shape {a.shape}, this model's is {shape}")
         if finite and a.dtype.kind == "f" and not np.isfinite(a).all():
             raise refusal(path, f"{key} holds NaN or inf, which no state of a run has")
+        if a.dtype.kind == "f" and a.size and (key in BOUNDED_ARRAYS or key.rpartition("/")[2] in BOUNDED_ARRAYS):
+            largest = float(np.nanmax(np.abs(a)))
+            if largest > MAGNITUDE_LIMIT:
+                raise refusal(path, f"{key} holds a value of magnitude {largest:.3g}, beyond the {MAGNITUDE_LIMIT:g} of any state "
+                                    "of a run (a corrupt checkpoint)")
         return a
 
     def point(key: str, tail: tuple, dtype: np.dtype, finite: bool, exact: bool = True) -> None:
@@ -217,7 +232,7 @@ def check_checkpoint(sim, path: Path, meta: dict, arrays: dict[str, np.ndarray],
         for which in ["np1"] + (["n"] if two_step and name in meta["two_step"] else []):
             key = f"{which}/{name}"
             target = store[name] if which == "np1" else store.n(name)
-            tail, finite = tuple(target.shape[1:]), name in FINITE_FIELDS
+            tail, finite = tuple(target.shape[1:]), name not in NONFINITE_FIELDS
             if carry and key in arrays and arrays[key].shape[1:] != tail:
                 continue  # another deck's field of another length: not taken
             if kind == "point":

@@ -281,6 +281,25 @@ def check_output_folder(folder: Path, option: str) -> None:
         raise InputError(f"{option}: cannot create or write the folder {str(folder)!r}: {why}", fix="give a folder you can write to")
 
 
+def check_output_prefix(prefix: Path, option: str, longest_suffix: int) -> None:
+    """InputError (naming ``option``) unless files ``PREFIX_<suffix>`` (suffixes of at most
+    ``longest_suffix`` bytes) can be written: the prefix's folder exists (it is not created), this
+    user can write in it and the names fit its file-name limit."""
+    parent = prefix.parent
+    if not parent.is_dir():
+        there = "is a file" if parent.exists() else "does not exist"
+        raise InputError(f"{option}: the folder {str(parent)!r} of the prefix {prefix.name!r} {there}",
+                         fix="create the folder first or give another prefix")
+    why = _writable_folder(parent)
+    if why:
+        raise InputError(f"{option}: cannot write files in {str(parent)!r}: {why}", fix="give a prefix in a folder you can write to")
+    size = len(os.fsencode(prefix.name))
+    limit = _name_max(parent)
+    if size + longest_suffix > limit:
+        raise InputError(f"{option} prefix {prefix.name[:40]}... is {size} bytes; the files' names would pass the {limit}-byte limit "
+                         "of a file name", fix=f"give a shorter {option} prefix")
+
+
 def write_text_atomic(path: Path, text: str, option: str) -> None:
     """Write ``text`` to ``path`` through a temporary file beside it, renamed over it: an error
     leaves an existing file as it was and no half-written one. InputError (naming ``option``)

@@ -15,7 +15,7 @@ KINDS = ("material", "damage", "contact", "compute", "stress-law")
 def _names(name: str) -> dict[str, str]:
     package = re.sub(r"[^0-9a-zA-Z_]", "_", name.strip()).lower().strip("_")
     if not package or package[0].isdigit() or keyword.iskeyword(package):
-        raise InputError(f"{name!r} cannot be a Python package name", fix="use letters, digits and underscores, starting with a letter")
+        raise InputError(f"NAME {name!r} cannot be a Python package name", fix="give letters, digits and underscores, starting with a letter")
     words = [w for w in package.split("_") if w]
     return {
         "package": package,

@@ -207,3 +207,38 @@ def test_paths_too_long_or_not_utf8_are_one_line_exit_2(deck, tmp_path, capsys):
     err = capsys.readouterr().err.splitlines()
     errors = [ln for ln in err if ln.startswith("error")]
     assert len(errors) == 2 and "File name too long" in errors[0] and len(errors[0]) < 200 and "not UTF-8" in errors[1]
+
+
+@pytest.mark.parametrize("argv, shown", [
+    (["check", ""], "DECK"),
+    (["run", ""], "DECK"),
+    (["run", "deck.yaml", "--output-dir", ""], "--output-dir"),
+    (["run", "deck.yaml", "--restart", ""], "--restart"),
+    (["convert", "", "out.yaml"], "IN"),
+    (["convert", "in.xml", ""], "OUT"),
+    (["schema", "-o", ""], "-o"),
+    (["schema", "--reference", ""], "--reference"),
+    (["fragments", ""], "RESULT"),
+    (["fragments", "r.e", "--plot", ""], "--plot"),
+    (["plot", ""], "RESULT"),
+    (["plot", "r.e", "--out", ""], "--out"),
+    (["new-plugin", ""], "NAME"),
+    (["new-plugin", "x", "--directory", ""], "--directory"),
+    (["verify", "--out", ""], "--out"),
+])
+def test_an_empty_argument_is_one_line_naming_it_exit_2(tmp_path, monkeypatch, capsys, argv, shown):
+    """Found by benchmarks/surface_campaign.py: `run deck --output-dir ""` wrote into the current
+    folder, `check ""` said '.: cannot tell the deck format'."""
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == ExitCode.INPUT_ERROR
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"error: {shown} is empty; give "), lines
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("name", ["", " ", "9lives"])
+def test_new_plugin_without_a_usable_name_names_the_argument(tmp_path, capsys, name):
+    assert main(["new-plugin", name, "--directory", str(tmp_path)]) == ExitCode.INPUT_ERROR
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: NAME ") and "; give " in lines[0], lines
+    assert not list(tmp_path.iterdir())

@@ -255,3 +255,13 @@ def test_a_schema_that_fails_to_build_leaves_the_old_file_and_no_temporary_one(t
     assert main(["schema", "--reference", str(tmp_path / "ref.md")]) == ExitCode.OK
     assert (tmp_path / "ref.md").read_text().startswith("#")
     assert sorted(os.listdir(tmp_path)) == ["ref.md", "schema.json"]
+
+
+def test_an_empty_output_dir_is_refused_not_taken_for_the_current_folder(tmp_path):
+    """Found by benchmarks/surface_campaign.py: `run deck --output-dir ""` was exit 0, writing into the current folder."""
+    write_cube(tmp_path)
+    proc = subprocess.run([sys.executable, "-m", "peridyn", "run", "cube.yaml", "--output-dir", "", "-q", "--no-progress"],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == ExitCode.INPUT_ERROR, proc.stderr
+    assert proc.stderr.splitlines() == ["error: --output-dir is empty; give a folder (or leave it out for the current one)"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cube.yaml"]

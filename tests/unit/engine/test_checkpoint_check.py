@@ -302,3 +302,32 @@ def test_the_command_exits_2_with_one_line_on_stderr(cube_run, arrays, tmp_path,
     lines = proc.stderr.splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: bad.npz: --restart: "), proc.stderr
     assert "earlier checkpoint" in lines[0] and "without --restart" in lines[0]
+
+
+def test_every_floating_field_of_the_checkpoint_must_be_finite(cube_run, arrays, tmp_path, capsys):
+    """A NaN in a field outside FINITE_FIELDS (the model's Weighted_Volume, Dilatation, ...) is
+    refused too: no field of a state a run reached holds one."""
+    others = sorted(k for k, a in arrays.items() if a.dtype.kind == "f" and "/" in k and not k.startswith("contact/")
+                    and k.split("/")[-1] not in FINITE_FIELDS)
+    assert "np1/Weighted_Volume" in others
+    for key in others:
+        a = arrays[key].copy()
+        a.reshape(-1)[0] = np.nan
+        out = fresh(cube_run, tmp_path)
+        bad = out / "nan.npz"
+        np.savez(bad, **{**arrays, key: a})
+        refused(out, bad, capsys)
+
+
+@pytest.mark.parametrize("key", ["acceleration", "np1/Velocity", "np1/Displacement"])
+def test_a_finite_value_too_large_to_square_is_refused_naming_the_array(cube_run, arrays, tmp_path, capsys, key):
+    a = arrays[key].copy()
+    a.reshape(-1)[3] = -1e308
+    out = fresh(cube_run, tmp_path)
+    bad = out / "huge.npz"
+    np.savez(bad, **{**arrays, key: a})
+    refused(out, bad, capsys)
+    out2 = fresh(cube_run, tmp_path)
+    shutil.copy(bad, out2 / "huge.npz")
+    assert run(out2, "--restart", str(out2 / "huge.npz")) == ExitCode.INPUT_ERROR
+    assert f"{key} holds a value of magnitude 1e+308" in capsys.readouterr().err

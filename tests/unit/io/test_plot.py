@@ -139,3 +139,13 @@ def test_the_damage_share_counts_only_points_that_carry_damage():
     curves = histories(synthetic(1, element={"Damage": d}))["damage"]
     assert np.allclose(curves["points with damage (share)"], 0.5)
     assert np.allclose(curves["mean damage over points (not volume-weighted)"], 0.25)
+
+
+@pytest.mark.parametrize("folder, there", [("missing", "does not exist"), ("afile", "is a file")])
+def test_an_out_prefix_in_a_folder_that_is_not_there_is_refused_before_drawing(result, tmp_path, capsys, folder, there):
+    """Found by benchmarks/surface_campaign.py: `plot base.e --out missing/p` was exit 1 (FileNotFoundError at the first picture)."""
+    (tmp_path / "afile").write_text("mine")
+    assert main(["plot", str(result), "--out", str(tmp_path / folder / "p")]) == ExitCode.INPUT_ERROR
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: --out: the folder ") and there in lines[0], lines
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile"] and (tmp_path / "afile").read_text() == "mine"
