@@ -378,28 +378,6 @@ def cmd_plot(args) -> int:
     return ExitCode.OK
 
 
-#: the path and name arguments of each command: (dest, as the user writes it, what to give instead)
-_NAMED_ARGUMENTS: dict[str, tuple[tuple[str, str, str], ...]] = {
-    "run": (("deck", "DECK", "give a deck file"), ("output_dir", "--output-dir", "give a folder (or leave it out for the current one)"),
-            ("restart", "--restart", "give a checkpoint file, or --restart alone for the latest")),
-    "check": (("deck", "DECK", "give a deck file"),), "verify": (("out", "--out", "give a folder"),),
-    "schema": (("output", "-o", "give a file (or leave it out to print)"), ("reference", "--reference", "give a file")),
-    "convert": (("input", "IN", "give the Peridigm XML deck"), ("output", "OUT", "give the YAML file to write")),
-    "new-plugin": (("name", "NAME", "give the plugin's package name, e.g. my_material"), ("directory", "--directory", "give a folder")),
-    "fragments": (("result", "RESULT", "give an Exodus file a run wrote"), ("plot", "--plot", "give a PNG file")),
-    "plot": (("result", "RESULT", "give an Exodus file a run wrote"), ("out", "--out", "give a file name prefix (or leave it out)"),
-             ("field", "--field", "give an output variable (or leave it out)")),
-}
-
-
-def _refuse_empty_arguments(args) -> None:
-    """InputError naming the first argument given as an empty string (``--output-dir ""``), which
-    would otherwise mean the current folder or a file named '.'."""
-    for dest, shown, fix in _NAMED_ARGUMENTS.get(args.command, ()):
-        if getattr(args, dest, None) == "":
-            raise InputError(f"{shown} is empty", fix=fix)
-
-
 def cmd_verify(args) -> int:
     """Run the verification problems; 0 every band holds, 1 one fails, 130 interrupted."""
     from .parallel.comm import get_comm
@@ -563,7 +541,9 @@ def _main(argv: list[str] | None) -> int:
 
         os.environ[ENV] = "1"
     try:
-        _refuse_empty_arguments(args)
+        from .engine.output_paths import refuse_empty_arguments
+
+        refuse_empty_arguments(args)
         return int(args.func(args))
     except InputError as exc:
         if debug:

@@ -11,7 +11,7 @@ import logging
 import os
 import stat
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ..core.errors import InputError, raise_collected
 
@@ -330,3 +330,25 @@ def replace_atomic(path: Path, write, option: str) -> None:
     finally:
         if tmp.exists():
             tmp.unlink()
+
+
+#: the path and name arguments of each command: (dest, as the user writes it, what to give instead)
+NAMED_ARGUMENTS: dict[str, tuple[tuple[str, str, str], ...]] = {
+    "run": (("deck", "DECK", "give a deck file"), ("output_dir", "--output-dir", "give a folder (or leave it out for the current one)"),
+            ("restart", "--restart", "give a checkpoint file, or --restart alone for the latest")),
+    "check": (("deck", "DECK", "give a deck file"),), "verify": (("out", "--out", "give a folder"),),
+    "schema": (("output", "-o", "give a file (or leave it out to print)"), ("reference", "--reference", "give a file")),
+    "convert": (("input", "IN", "give the Peridigm XML deck"), ("output", "OUT", "give the YAML file to write")),
+    "new-plugin": (("name", "NAME", "give the plugin's package name, e.g. my_material"), ("directory", "--directory", "give a folder")),
+    "fragments": (("result", "RESULT", "give an Exodus file a run wrote"), ("plot", "--plot", "give a PNG file")),
+    "plot": (("result", "RESULT", "give an Exodus file a run wrote"), ("out", "--out", "give a file name prefix (or leave it out)"),
+             ("field", "--field", "give an output variable (or leave it out)")),
+}
+
+
+def refuse_empty_arguments(args: Any) -> None:
+    """InputError naming the first argument given as an empty string (``--output-dir ""``), which
+    would otherwise mean the current folder or a file named '.'."""
+    for dest, shown, fix in NAMED_ARGUMENTS.get(args.command, ()):
+        if getattr(args, dest, None) == "":
+            raise InputError(f"{shown} is empty", fix=fix)
