@@ -582,7 +582,9 @@ def _main(argv: list[str] | None) -> int:
     except UnicodeEncodeError as exc:
         if debug:
             raise
-        say("error", f"a path holds characters that are not UTF-8 ({exc.object[exc.start:exc.end]!a}); rename it with UTF-8 characters")
+        path = ascii(exc.object) if isinstance(exc.object, str) else "a path"
+        shown = path if len(path) <= 80 else path[:40] + "..." + path[-30:]
+        say("error", f"{shown}: holds characters that are not UTF-8 ({exc.object[exc.start:exc.end]!a}); rename it with UTF-8 characters")
         return int(ExitCode.INPUT_ERROR)
     except MemoryError as exc:
         if debug:

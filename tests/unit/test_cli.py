@@ -206,7 +206,7 @@ def test_paths_too_long_or_not_utf8_are_one_line_exit_2(deck, tmp_path, capsys):
     assert main(["run", str(deck), "--no-progress", "--output-dir", os.fsdecode(b"d\xff\xfeck")]) == 2
     err = capsys.readouterr().err.splitlines()
     errors = [ln for ln in err if ln.startswith("error")]
-    assert len(errors) == 2 and "File name too long" in errors[0] and len(errors[0]) < 200 and "not UTF-8" in errors[1]
+    assert len(errors) == 2 and "File name too long" in errors[0] and len(errors[0]) < 200 and "not UTF-8" in errors[1] and "d\\udcff" in errors[1]  # the path named
 
 
 @pytest.mark.parametrize("argv, shown", [
