@@ -39,7 +39,8 @@ NONFINITE_FIELDS: frozenset[str] = frozenset()
 #: arrays of positions, motion and forces whose magnitude is bounded: beyond what a double can
 #: square (kinetic energy, distances) a value is a corrupt checkpoint, not a state of a run
 BOUNDED_ARRAYS = FINITE_FIELDS | {"acceleration", "contact/s", "contact/y_build"}
-#: the largest magnitude taken in a BOUNDED_ARRAYS array (its square, 1e300, is still a double)
+#: the largest magnitude taken in a floating array (its square, 1e300, is still a double); the
+#: arrays of BOUNDED_ARRAYS are the ones whose size a run's answer reads first
 MAGNITUDE_LIMIT = 1e150
 #: the energy monitor's accumulators a continued Verlet section reads (numbers; stored0 may be null)
 MONITOR_NUMBERS = ("dt", "dt_estimate", "kinetic0", "shadow0", "shadow", "kinetic", "stored", "external", "constraint", "load_shadow",
@@ -165,6 +166,8 @@ def _check_meta(path: Path, meta: dict) -> None:
         need(isinstance(monitor, dict), "no energy monitor for the step it was written after")
         for key in MONITOR_NUMBERS:
             need(_number(monitor.get(key)), f"the energy monitor's {key!r} = {monitor.get(key)!r}, not a finite number")
+        start = monitor.get("start_energy", "missing")
+        need(start is None or _number(start), f"the energy monitor's 'start_energy' = {start!r}, not a finite number or null")
         need(monitor.get("stored0") is None or _number(monitor["stored0"]), "an energy monitor 'stored0' that is not a number")
         for key in MONITOR_FLAGS:
             need(isinstance(monitor.get(key), bool), f"the energy monitor's {key!r} = {monitor.get(key)!r}, not true or false")
@@ -198,7 +201,7 @@ def check_checkpoint(sim, path: Path, meta: dict, arrays: dict[str, np.ndarray],
             raise refusal(path, f"{key} has shape {a.shape}, this model's is {shape}")
         if finite and a.dtype.kind == "f" and not np.isfinite(a).all():
             raise refusal(path, f"{key} holds NaN or inf, which no state of a run has")
-        if a.dtype.kind == "f" and a.size and (key in BOUNDED_ARRAYS or key.rpartition("/")[2] in BOUNDED_ARRAYS):
+        if a.dtype.kind == "f" and a.size:  # every floating array: no field of a run holds 1e150 in any unit system
             largest = float(np.nanmax(np.abs(a)))
             if largest > MAGNITUDE_LIMIT:
                 raise refusal(path, f"{key} holds a value of magnitude {largest:.3g}, beyond the {MAGNITUDE_LIMIT:g} of any state "

@@ -319,7 +319,7 @@ def test_every_floating_field_of_the_checkpoint_must_be_finite(cube_run, arrays,
         refused(out, bad, capsys)
 
 
-@pytest.mark.parametrize("key", ["acceleration", "np1/Velocity", "np1/Displacement"])
+@pytest.mark.parametrize("key", ["acceleration", "np1/Velocity", "np1/Displacement", "np1/Weighted_Volume"])
 def test_a_finite_value_too_large_to_square_is_refused_naming_the_array(cube_run, arrays, tmp_path, capsys, key):
     a = arrays[key].copy()
     a.reshape(-1)[3] = -1e308
