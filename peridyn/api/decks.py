@@ -167,10 +167,10 @@ def points_deck(x: np.ndarray, volume: np.ndarray, tree: Mapping, *, block_id: n
                           min_element_radius=min_element_radius(volume), source="points given in Python")
     tree = deck_tree(tree)
     shared = dict(tree.get("Discretization") or {})
-    extra = set(shared) - {"Influence Function", "Bond Filters", "Omit Bonds Between Blocks", "Type"}
-    if extra:
-        raise InputError(f"points: the Discretization section may hold only the shared keys, not {sorted(extra)}",
-                         fix="the points are the arrays given; leave out mesh keys")
+    extra = set(shared) - {"Influence Function", "Bond Filters", "Omit Bonds Between Blocks"}
+    if extra:  # a Type or mesh keys would be silently replaced by the points
+        raise ArgumentError(f"deck's Discretization section may hold only the shared keys, not {sorted(extra)}", path=(call, "deck"),
+                            fix="the points are the arrays given: leave out Type and the mesh keys")
     # a stand-in type passes the deck's validation of the shared keys; the reader is swapped below
     shared.update({"Type": "Text File", "Input Mesh File": "<points given in Python>"})
     deck = parse_tree({**tree, "Discretization": shared}, directory)

@@ -178,7 +178,8 @@ def test_from_points_node_sets_take_regions_and_bad_arrays_are_named() -> None:
                         ({"volume": -1.0}, "volume"), ({"volume": np.inf}, "volume"), ({"block_id": np.ones(5, int)}, "block_id"),
                         ({"block_id": 0}, "block_id"), ({"block_id": 1.5}, "block_id"),
                         ({"node_sets": {"A": [len(x)]}}, "node_sets['A']"), ({"node_sets": {"A": {"Box": {}}}}, "node_sets['A']"),
-                        ({"node_sets": [1, 2]}, "node_sets"), ({"deck": "deck.yaml"}, "deck")]:
+                        ({"node_sets": [1, 2]}, "node_sets"), ({"deck": "deck.yaml"}, "deck"),
+                        ({"deck": {**deck, "Discretization": {"Type": "PdQuickGrid"}}}, "deck")]:  # not silently replaced
         args = {"x": x, "volume": h**3, "deck": deck, **kwargs}
         with pytest.raises(ArgumentError) as info:
             peridyn.Model.from_points(args.pop("x"), args.pop("volume"), args.pop("deck"), write_files=False, **args)
