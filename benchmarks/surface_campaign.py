@@ -22,6 +22,13 @@ import time
 from collections import Counter, defaultdict
 from pathlib import Path
 
+import os
+
+# before numba is imported: the cases run in children forked from this process, and GNU OpenMP refuses to fork
+os.environ.setdefault("NUMBA_THREADING_LAYER", "workqueue")
+os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+os.environ.setdefault("PERIDYN_NO_PROGRESS", "1")
+
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 

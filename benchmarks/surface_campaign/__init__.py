@@ -2,22 +2,18 @@
 restart files, stress-law modules, the Python API, the commands' arguments and a 2-rank sample.
 
 Entry point: ``python benchmarks/surface_campaign.py --cases 2000 --seed 1`` (see that file).
-Set the threading layer before numba is imported: the cases run in children forked from this
-process, and GNU OpenMP refuses to fork.
+The entry point sets numba's threading layer (workqueue: the cases run in children forked from
+its process, and GNU OpenMP refuses to fork) before anything imports numba; importing this
+package changes no environment (tests import its deck helpers in pytest's own process).
 """
 from __future__ import annotations
 
 import os
-
-os.environ.setdefault("NUMBA_THREADING_LAYER", "workqueue")
-os.environ.setdefault("NUMBA_NUM_THREADS", "1")
-os.environ.setdefault("PERIDYN_NO_PROGRESS", "1")
-
-import random  # noqa: E402
-import shutil  # noqa: E402
-import sys  # noqa: E402
-import tempfile  # noqa: E402
-from pathlib import Path  # noqa: E402
+import random
+import shutil
+import sys
+import tempfile
+from pathlib import Path
 
 from .decks import GEO_BOX, RESTART, XML_DECK, base, make_meshes, write_deck  # noqa: E402,F401
 from .engine import ALL_CLASSES, BAD_CLASSES, Case, Outcome, Pool  # noqa: E402,F401
