@@ -328,8 +328,8 @@ def _motion_findings(sim: Any, scales: list[BlockScales]) -> list[str]:
     slowest = min(speeds, key=lambda b: b.wave_speed)
     stiff = max(b.bulk for b in speeds)
     fast = 0.0
-    dofs = getattr(sim, "prescribed_dofs", None)
-    if "Velocity" in sim.fields and dofs is not None and n:
+    dofs = sim.prescribed_dofs
+    if "Velocity" in sim.fields and n:
         v = np.abs(sim.fields["Velocity"][:n])[dofs[:n]]
         v = v[np.isfinite(v)]
         fast = float(v.max()) if v.size else 0.0
