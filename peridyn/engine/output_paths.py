@@ -287,8 +287,11 @@ def check_output_prefix(prefix: Path, option: str, longest_suffix: int) -> None:
     user can write in it and the names fit its file-name limit."""
     parent = prefix.parent
     if not parent.is_dir():
-        there = "is a file" if parent.exists() else "does not exist"
-        raise InputError(f"{option}: the folder {str(parent)!r} of the prefix {prefix.name!r} {there}",
+        above = next((p for p in (parent, *parent.parents) if p.exists()), None)  # the nearest part that exists
+        if above is not None and not above.is_dir():
+            raise InputError(f"{option}: {str(above)!r} is a file, not a folder, so the prefix {prefix.name!r} cannot be in it",
+                             fix="give a prefix in a folder")
+        raise InputError(f"{option}: the folder {str(parent)!r} of the prefix {prefix.name!r} does not exist",
                          fix="create the folder first or give another prefix")
     why = _writable_folder(parent)
     if why:

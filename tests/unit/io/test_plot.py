@@ -147,5 +147,5 @@ def test_an_out_prefix_in_a_folder_that_is_not_there_is_refused_before_drawing(r
     (tmp_path / "afile").write_text("mine")
     assert main(["plot", str(result), "--out", str(tmp_path / folder / "p")]) == ExitCode.INPUT_ERROR
     lines = capsys.readouterr().err.splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: --out: the folder ") and there in lines[0], lines
+    assert len(lines) == 1 and lines[0].startswith("error: --out: ") and there in lines[0], lines
     assert sorted(p.name for p in tmp_path.iterdir()) == ["afile"] and (tmp_path / "afile").read_text() == "mine"
