@@ -30,6 +30,19 @@ def shape_tensors_term(i, j, b, ex, ey, ez, L, z, p, args):
     """Adds the bond's omega V_j xi (x) xi to K and omega V_j eta (x) xi to N (p = (K, N));
     contributes nothing to the law's own sum."""
     y, volume, horizon, omega_kind, omega_table, F, Kinv, singular = args
+    return _add_bond(i, j, b, ex, ey, ez, L, p, y, volume, horizon, omega_kind, omega_table)
+
+
+def intact_shape_tensors_term(i, j, b, ex, ey, ez, L, z, p, args):
+    """``shape_tensors_term`` over the bonds whose damage (args' last entry, (num_bonds,); empty:
+    every bond) is below 1: the deformation gradient that fits what holds a family together."""
+    y, volume, horizon, omega_kind, omega_table, F, Kinv, singular, damage = args
+    if damage.shape[0] > 0 and damage[b] >= 1:
+        return 0.0
+    return _add_bond(i, j, b, ex, ey, ez, L, p, y, volume, horizon, omega_kind, omega_table)
+
+
+def _add_bond(i, j, b, ex, ey, ez, L, p, y, volume, horizon, omega_kind, omega_table):
     K, N = p
     e0 = y[j, 0] - y[i, 0]
     e1 = y[j, 1] - y[i, 1]
@@ -48,6 +61,16 @@ def deformation_gradient_finish(i, acc, p, args):
     """K^-1 (Peridigm's 3x3 inverse; 0 and singular[i] = 1 where det K = 0) and F = N K^-1,
     written to Kinv[i] and F[i]; returns det K (L^15)."""
     y, volume, horizon, omega_kind, omega_table, F, Kinv, singular = args
+    return _invert_and_fit(i, p, F, Kinv, singular)
+
+
+def intact_deformation_gradient_finish(i, acc, p, args):
+    """``deformation_gradient_finish`` for ``intact_shape_tensors_term``'s args."""
+    y, volume, horizon, omega_kind, omega_table, F, Kinv, singular, damage = args
+    return _invert_and_fit(i, p, F, Kinv, singular)
+
+
+def _invert_and_fit(i, p, F, Kinv, singular):
     K, N = p
     m0 = K[4] * K[8] - K[5] * K[7]
     m1 = K[3] * K[8] - K[5] * K[6]
@@ -82,6 +105,9 @@ def deformation_gradient_finish(i, acc, p, args):
 
 
 DEFORMATION_GRADIENT = PointSum(shape_tensors_term, point=shape_tensors_point, finish=deformation_gradient_finish, allocates=True)
+#: the same over intact bonds only; args as DEFORMATION_GRADIENT's with Bond_Damage (num_bonds,) last
+INTACT_DEFORMATION_GRADIENT = PointSum(intact_shape_tensors_term, point=shape_tensors_point, finish=intact_deformation_gradient_finish,
+                                       allocates=True)
 
 
 class DeformationGradient(Compute):

@@ -22,6 +22,9 @@ from typing import Any
 import numpy as np
 from numba import njit, prange
 
+from ..computes.deformation_gradient import INTACT_DEFORMATION_GRADIENT
+from ..core.influence import ONE
+
 log = logging.getLogger("peridyn.solver")
 
 #: checks per solver section (and one at its end): the strain check is one pass over the bonds
@@ -58,31 +61,18 @@ def bond_strain_kernel(start, stop, offsets, neighbors, x, y, damage, point_dama
         out[i - start] = worst
 
 
-@njit(cache=True, parallel=True)
-def family_gradient_kernel(points, offsets, neighbors, x, y, volume, damage, F):
-    """F[k] (3, 3) = (sum_j eta (x) xi V_j) (sum_j xi (x) xi V_j)^-1 over the intact bonds of point
-    ``points[k]`` (damage below 1; damage empty: every bond), xi = x_j - x_i, eta = y_j - y_i:
-    the deformation gradient that best fits the family's motion (identity where the family
-    does not span three dimensions)."""
-    has_d = damage.shape[0] > 0
-    for k in prange(points.shape[0]):
-        i = points[k]
-        K = np.zeros((3, 3))
-        N = np.zeros((3, 3))
-        for b in range(offsets[i], offsets[i + 1]):
-            if has_d and damage[b] >= 1:
-                continue
-            j = neighbors[b]
-            for r in range(3):
-                for c in range(3):
-                    K[r, c] += (x[j, c] - x[i, c]) * (x[j, r] - x[i, r]) * volume[j]
-                    N[r, c] += (y[j, r] - y[i, r]) * (x[j, c] - x[i, c]) * volume[j]
-        det = np.linalg.det(K)
-        scale = K[0, 0] + K[1, 1] + K[2, 2]
-        if scale > 0.0 and abs(det) > 1e-9 * scale * scale * scale:
-            F[k] = N @ np.linalg.inv(K)
-        else:
-            F[k] = np.eye(3)
+def family_gradients(sim: Any, lo: int, hi: int, damage: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(F (hi - lo, 3, 3), singular (hi - lo,) bool) of the points lo..hi: the deformation gradient
+    fitted, unweighted, to each family's intact bonds (computes.deformation_gradient's
+    INTACT_DEFORMATION_GRADIENT, run by the model's backend); singular where the family does
+    not span three dimensions (F is 0 there)."""
+    s = sim.fields
+    n = sim.num_local
+    F, Kinv, singular = np.zeros((n, 9)), np.zeros((n, 9)), np.zeros(n, dtype=np.int8)
+    args = (s["Coordinates"], s["Volume"], sim.horizon_local, ONE, np.zeros(0), F, Kinv, singular, damage)
+    sim.backend.kernel(INTACT_DEFORMATION_GRADIENT)(lo, hi, sim.bonds.offsets, sim.bonds.neighbors, s["Bond_Length"],
+                                                    s["Model_Coordinates"], args, np.zeros(n))
+    return F[lo:hi].reshape(-1, 3, 3), singular[lo:hi].astype(bool)
 
 
 def family_strains(F: np.ndarray) -> np.ndarray:
@@ -146,13 +136,11 @@ class RangeWatch:
                         bond_strain_kernel(lo, hi, nl.offsets, nl.neighbors, x, y, damage, point_damage, values)
                         over = np.flatnonzero(values > limit)
                         if over.size:
-                            F = np.empty((over.size, 3, 3))
-                            family_gradient_kernel(over + lo, nl.offsets, nl.neighbors, x, y, f["Volume"], damage, F)
-                            values[over] = family_strains(F)
+                            F, singular = family_gradients(sim, lo, hi, damage)
+                            values[over] = np.where(singular[over], 0.0, family_strains(F[over]))
                     else:
-                        F = np.empty((hi - lo, 3, 3))
-                        family_gradient_kernel(np.arange(lo, hi), nl.offsets, nl.neighbors, x, y, f["Volume"], damage, F)
-                        values = rotation_angles(F)
+                        F, singular = family_gradients(sim, lo, hi, damage)
+                        values = np.where(singular, 0.0, rotation_angles(F))
                 k = int(np.argmax(values)) if values.size else -1
                 local = (float(values[k]), int(sim.gid[lo + k]) + 1, tuple(float(c) for c in x[lo + k])) if k >= 0 else (0.0, 0, ())
                 worst = max(sim.comm.allgather(local), key=lambda v: v[0]) if sim.comm.size > 1 else local
