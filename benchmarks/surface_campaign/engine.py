@@ -11,7 +11,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import resource
 import shutil
 import signal
 import subprocess
@@ -79,12 +78,7 @@ def _sha(path: Path) -> str | None:
 
 
 def _limits() -> None:
-    for res, lim in ((resource.RLIMIT_AS, MEMORY_LIMIT), (resource.RLIMIT_FSIZE, FILE_LIMIT), (resource.RLIMIT_CORE, 0)):
-        try:
-            resource.setrlimit(res, (lim, lim))
-        except (ValueError, OSError):
-            pass
-    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    runner._limits(MEMORY_LIMIT, FILE_LIMIT)
 
 
 def _child(case: Case, spec: Spec, tmp: Path) -> None:

@@ -101,8 +101,9 @@ class Outcome:
 # ------------------------------------------------------------------------------------------------
 # Executing
 # ------------------------------------------------------------------------------------------------
-def _limits() -> None:
-    for res, lim in ((resource.RLIMIT_AS, MEMORY_LIMIT), (resource.RLIMIT_FSIZE, FILE_LIMIT), (resource.RLIMIT_CORE, 0)):
+def _limits(memory: int = MEMORY_LIMIT, files: int = FILE_LIMIT) -> None:
+    """This process's memory, file-size and core limits (a file past its limit fails to write)."""
+    for res, lim in ((resource.RLIMIT_AS, memory), (resource.RLIMIT_FSIZE, files), (resource.RLIMIT_CORE, 0)):
         try:
             resource.setrlimit(res, (lim, lim))
         except (ValueError, OSError):
