@@ -20,6 +20,7 @@ import numpy as np
 from ..core.errors import InputError, InstabilityError, PeridynError
 from ..core.fields import Temporal
 from ..deck.model import tidy
+from ..solvers.verlet import Verlet
 from .checks import (ArgumentError, ArgumentTypeError, UnknownNameError, a_callable, finite_number, name_text, real_array,
                      region_mapping, whole_number)
 from .decks import DeckLike, build_deck, point_indices, points_deck
@@ -70,7 +71,7 @@ class Model:
 
     The run follows the deck's solver sections in order, exactly as ``peridyn run`` does (the
     same operations, bit for bit). ``run()`` runs to the end, ``run(until=t)`` and ``step(n)``
-    advance an explicit (Verlet, CPU) section step by step. The output files are complete when
+    advance an explicit (Verlet) section step by step, on the CPU or the GPU. The output files are complete when
     the last section ends, or on ``close()`` (the frames written so far).
     """
 
@@ -246,6 +247,9 @@ class Model:
         elif name == "Coordinates":
             f["Displacement"][: self.sim.num_owned] = local - f["Model_Coordinates"][: self.sim.num_owned]
         self.sim.exchange_halo_fields()
+        solver = self._solvers()[self._section][0] if self._generator is not None else None
+        if isinstance(solver, Verlet) and solver.placed is not None:  # a GPU run's next step reads its device copies
+            solver.placed.upload([name] + {"Displacement": ["Coordinates"], "Coordinates": ["Displacement"]}.get(name, []))
 
     def _field(self, name: str, call: str) -> np.ndarray:
         store = self.sim.fields
@@ -374,17 +378,18 @@ class Model:
                     self._finish()
                     return False
                 solver = plan[self._section][0]
-                if self.sim.device == "cpu" and hasattr(solver, "steps"):
+                if isinstance(solver, Verlet):
                     self._started = True
-                    self._generator = solver.steps(self.sim)
+                    # a GPU run's fields come back at every step, so that what a step(n) caller reads is current
+                    self._generator = solver.steps(self.sim, host_each_step=self.sim.device == "gpu")
                     self._guard(lambda: next(self._generator))  # step 0: forces and output at the initial time
                     self._record(0)
                     continue
                 final = float(solver.params.final_time)
                 if whole_until is None or final > whole_until * (1.0 + 1e-12):
-                    raise RunEnded(f"{solver.section}: {type(solver).__name__} on the {self.sim.device.upper()} runs as one piece, "
+                    raise RunEnded(f"{solver.section}: {type(solver).__name__} runs as one piece, "
                                    f"to t = {final:.6g}; use run() or run(until=t) with t at or after its end (stepping needs "
-                                   "an explicit Verlet section on the CPU)")
+                                   "an explicit Verlet section)")
                 self._started = True
                 self._guard(lambda: solver.run(self.sim))
                 self._section += 1

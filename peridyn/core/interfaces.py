@@ -18,6 +18,7 @@ import numpy as np
 
 from .fields import FieldSpec, FieldStore
 from .params import ModelParams
+from .placement import Placement
 from .traversal import Backend
 
 from .bonds import NeighborList
@@ -409,6 +410,7 @@ class Simulation(Protocol):
     progress: bool  #: whether solvers show progress
     timers: dict[str, float]  #: wall-time sections (s) for the summary
     backend: Backend  #: where arrays live and bond loops run
+    host: Placement  #: the explicit step's arrays where this simulation holds them (peridyn.core.placement)
     device: str  #: "cpu", or "gpu" for an explicit run on one GPU (``--device``, the solver's ``Device``)
     device_backend: Backend | None  #: the GPU backend of a "gpu" run (set-up stays on ``backend``), else None
     time_step: float  #: the current step of the solver running (T)

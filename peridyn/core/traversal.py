@@ -23,7 +23,7 @@ expressions): they are compiled without numba's reference counting, which otherw
 atomic increment and decrement of every array they unpack from ``args`` at every bond (measured
 2-4x on the elastic and damage loops). A law whose functions allocate says ``allocates=True``.
 
-Kernel signature for every law: ``kernel(start, stop, offsets, neighbors, zeta, y, args, out)``
+Kernel signature for every law with a bond loop: ``kernel(start, stop, offsets, neighbors, zeta, y, args, out)``
 with ``offsets`` (n+1,) and ``neighbors`` (nb,) int32 the CSR bonds, ``zeta`` (nb,) reference bond
 lengths (L), ``y`` (n, >=3) current positions in columns 0-2 (L; packed records may carry more
 columns), ``out`` the law's output (below). Points ``[start, stop)`` are computed. A law with
@@ -33,6 +33,10 @@ of the same packed records as ``y``) and computes z = |x_j - x_i| as the engine 
 law with ``z_from_codes=True`` takes instead the pair ``(codes, table)`` of
 ``peridyn.kernels.lengths.coded_lengths`` (a uint8 or uint16 code per bond into a table of the
 distinct lengths) and reads z = table[codes[b]], the same bits again, from one or two bytes a bond.
+
+The same seam carries the point loops of a time step: :class:`PointUpdate` (a kick, a drift, a
+condition's values written on its node set) and :class:`PointReduction` (the step's energy sums),
+so a solver writes its step once and every backend runs it where its arrays live.
 """
 from __future__ import annotations
 
@@ -121,7 +125,38 @@ class PointMap:
     allocates: bool = False
 
 
-Law = PointSum | BondMap | PairForce | PointMap
+@dataclass(frozen=True)
+class PointUpdate:
+    """``update(i, args)`` for every item ``i`` of ``[start, stop)``, no bonds and no return: the
+    function writes item ``i``'s own entries of arrays in ``args`` (a solver's kick or drift of
+    point i, a condition's value at entry i of its node set). Items are independent, so a
+    backend runs them in any order and on any number of threads. Kernel:
+    ``kernel(start, stop, args)``."""
+
+    update: Callable
+    allocates: bool = False
+
+
+@dataclass(frozen=True)
+class PointReduction:
+    """``out[k] = sum_i term(i, args)[k]`` over the items ``i`` of ``[start, stop)`` (``out``
+    (width,) on the backend; ``term`` returns a ``width``-tuple, or a number for width 1): the
+    per-step sums of a solver (work, kinetic energy, the largest displacement as a sum's
+    partner). Each backend sums in a fixed order that does not depend on its thread count (the
+    CPU backends in item order on one thread; a GPU in per-block trees), so a run gives the same
+    sums every time and the CPU's bits on every CPU thread count. Kernel:
+    ``kernel(start, stop, args, out)``."""
+
+    term: Callable
+    width: int = 1
+    allocates: bool = False
+
+
+#: laws with a bond loop (``kernel(start, stop, offsets, neighbors, zeta, y, args, out)``)
+BondLaw = PointSum | BondMap | PairForce | PointMap
+#: laws over items alone (points, or a node set's entries)
+ItemLaw = PointUpdate | PointReduction
+Law = BondLaw | ItemLaw
 
 
 class Backend(ABC):
@@ -143,7 +178,9 @@ class Backend(ABC):
 
     @abstractmethod
     def kernel(self, law: Law) -> Callable[..., Any]:
-        """The loop of ``law``: ``kernel(start, stop, offsets, neighbors, zeta, y, args, out)``."""
+        """The loop of ``law``: ``kernel(start, stop, offsets, neighbors, zeta, y, args, out)``
+        for a law with a bond loop, ``kernel(start, stop, args)`` for a :class:`PointUpdate` and
+        ``kernel(start, stop, args, out)`` for a :class:`PointReduction`."""
 
     def mirror_kernel(self, law: Law) -> Callable[..., Any] | None:
         """The mirrored loop of ``law`` (``peridyn.kernels.mirror``: each bond once, for both
@@ -178,3 +215,6 @@ class Backend(ABC):
     def to_host(self, array: Any) -> Any:
         """A numpy view or copy of a backend array (output, reductions, checks)."""
         return array
+
+    def synchronize(self) -> None:
+        """Wait for every loop launched so far (timings; nothing to wait for on the CPU)."""

@@ -22,6 +22,8 @@ from ..core.errors import InputError, InstabilityError, raise_collected
 from ..core.fields import FieldSpec, Length, Relation
 from ..core.interfaces import Simulation
 from ..core.params import ModelParams
+from ..core.placement import Placement
+from ..kernels import scatter as S
 from ..deck.model import tidy
 
 COMPONENT = {"x": 0, "y": 1, "z": 2}
@@ -67,6 +69,9 @@ class BoundaryCondition:
     #: what the condition acts on: "displacement", "velocity", "temperature", "body_force"
     target: ClassVar[str]
     scalar: ClassVar[bool] = False
+    #: where the condition's step hooks run: "cpu" (host arrays) and, for a condition written
+    #: with the point laws of ``peridyn.kernels.scatter``, "gpu" (any placement's arrays)
+    devices: ClassVar[frozenset[str]] = frozenset({"cpu"})
 
     def __init__(self, params: BCParams, *, entry_name: str = "") -> None:
         from ..deck.expressions import compile_expression
@@ -131,10 +136,12 @@ class BoundaryCondition:
     def apply_initial(self, sim: "Simulation") -> None:  # pragma: no cover - interface
         raise NotImplementedError
 
-    def apply_kinematic(self, sim: "Simulation", t: float, t_prev: float) -> None:  # pragma: no cover
+    def apply_kinematic(self, where: Placement, t: float, t_prev: float) -> None:  # pragma: no cover
+        """Stage "kinematic": the condition for the step t_prev -> t on the step's arrays ``where``."""
         raise NotImplementedError
 
-    def apply_force(self, sim: "Simulation", t: float) -> None:  # pragma: no cover
+    def apply_force(self, where: Placement, t: float) -> None:  # pragma: no cover
+        """Stage "force": the condition's share of External_Force_Density at time t on ``where``."""
         raise NotImplementedError
 
     def prepare(self, sim: "Simulation", members: np.ndarray, region: Any, surface: Callable[[], Any]) -> None:
@@ -188,24 +195,16 @@ class PrescribedDisplacement(BoundaryCondition):
     name = "PRESCRIBED_DISPLACEMENT"
     stage = "kinematic"
     target = "displacement"
+    devices = frozenset({"cpu", "gpu"})
 
-    def increment(self, sim: "Simulation", t: float, t_prev: float) -> np.ndarray:
-        c = self.evaluate(t)
-        p = self.evaluate(t_prev)
-        du = c - p
-        same = du == 0.0
-        if np.any(same):
-            u = sim.fields["Displacement"][self.points, self.component]
-            du = np.where(same, c - u, du)
-        return du
-
-    def apply_kinematic(self, sim: "Simulation", t: float, t_prev: float) -> None:
+    def apply_kinematic(self, where: Placement, t: float, t_prev: float) -> None:
         if t == t_prev:
             return
-        du = self.increment(sim, t, t_prev)
-        sim.fields["Velocity"][self.points, self.component] = du * (1.0 / (t - t_prev))
-        if sim.delta_u is not None:
-            sim.delta_u[self.points, self.component] = du
+        f = where.fields
+        du = where.delta_u
+        S.scatter(where, S.PRESCRIBED_DISPLACEMENT, len(self.points),
+                  (where.resident(self.points), self.component, where.asarray(self.evaluate(t)), where.asarray(self.evaluate(t_prev)),
+                   1.0 / (t - t_prev), f["Displacement"], f["Velocity"], du if du is not None else where.no_vectors))
 
 
 class PrescribedTemperature(BoundaryCondition):
@@ -216,12 +215,19 @@ class PrescribedTemperature(BoundaryCondition):
     stage = "kinematic"
     target = "temperature"
     scalar = True
+    devices = frozenset({"cpu", "gpu"})
 
-    def apply_kinematic(self, sim: "Simulation", t: float, t_prev: float) -> None:
-        value = self.evaluate(t)
-        sim.fields["Temperature"][self.points] = value
+    def apply_kinematic(self, where: Placement, t: float, t_prev: float) -> None:
+        value = where.asarray(self.evaluate(t))
+        points = where.resident(self.points)
+        S.scatter(where, S.SET_SCALAR, len(self.points), (points, value, where.fields["Temperature"]))
         if t != t_prev:
-            sim.fields["Temperature_Change"][self.points] = value - self.evaluate(0.0)
+            if self._initial is None:
+                self._initial = self.evaluate(0.0)
+            S.scatter(where, S.SET_DIFFERENCE, len(self.points),
+                      (points, value, where.resident(self._initial), where.fields["Temperature_Change"]))
+
+    _initial: np.ndarray | None = None  #: the value at t = 0 (k,), computed once
 
 
 class BodyForce(BoundaryCondition):
@@ -230,9 +236,11 @@ class BodyForce(BoundaryCondition):
     name = "BODY_FORCE"
     stage = "force"
     target = "body_force"
+    devices = frozenset({"cpu", "gpu"})
 
-    def apply_force(self, sim: "Simulation", t: float) -> None:
-        sim.fields["External_Force_Density"][self.points, self.component] = self.evaluate(t)
+    def apply_force(self, where: Placement, t: float) -> None:
+        S.scatter(where, S.SET_COMPONENT, len(self.points),
+                  (where.resident(self.points), self.component, where.asarray(self.evaluate(t)), where.fields["External_Force_Density"]))
 
 
 class PrescribedFluidPressureU(BoundaryCondition):
@@ -246,13 +254,13 @@ class PrescribedFluidPressureU(BoundaryCondition):
     target = "fluid_pressure"
     scalar = True
 
-    def apply_kinematic(self, sim: "Simulation", t: float, t_prev: float) -> None:
-        if t == t_prev or "Fluid_Pressure_V" not in sim.fields:
+    def apply_kinematic(self, where: Placement, t: float, t_prev: float) -> None:
+        if t == t_prev or "Fluid_Pressure_V" not in where.fields:
             return
         dp = self.evaluate(t) - self.evaluate(t_prev)
-        sim.fields["Fluid_Pressure_V"][self.points] = dp * (1.0 / (t - t_prev))
-        if sim.delta_p is not None:
-            sim.delta_p[self.points] = dp
+        where.fields["Fluid_Pressure_V"][self.points] = dp * (1.0 / (t - t_prev))
+        if where.delta_p is not None:
+            where.delta_p[self.points] = dp
 
 
 class InitialFluidPressureU(BoundaryCondition):

@@ -47,7 +47,7 @@ log = logging.getLogger("peridyn.restart")
 #: under MPI the ranks agree on a pending signal every this many steps (a reduction)
 SIGNAL_CHECK_EVERY = 16
 #: monitor attributes rebuilt from the model at a restart, not stored
-_MONITOR_DERIVED = ("sim", "mass", "free", "_empty", "_rows", "batch")
+_MONITOR_DERIVED = ("sim", "mass", "free", "_empty", "_rows", "batch", "_step")
 _NAME = re.compile(r"^(?P<stem>.+)\.(?P<section>\d{3})\.(?P<step>\d{10})\.npz$")
 
 
@@ -175,9 +175,11 @@ class Checkpoints:
         self._resume = None
         return int(r["step"]), _restore_monitor(self.sim, r["monitor"])
 
-    def after_step(self, step: int, monitor) -> None:
+    def after_step(self, step: int, monitor, where=None) -> None:
         """End of Verlet step ``step`` (after the output and the swap of N and NP1): a
-        checkpoint every ``Restart Frequency`` steps, and on a signal (then RunInterrupted)."""
+        checkpoint every ``Restart Frequency`` steps, and on a signal (then RunInterrupted).
+        ``where``: the step's :class:`~peridyn.core.placement.Placement`, whose arrays are
+        brought to the host before a checkpoint is written (a GPU run's)."""
         p = self.params
         if p is None or not self.polling:
             return
@@ -185,6 +187,8 @@ class Checkpoints:
         signum = self._agreed_signal(step, due)
         if due or signum:
             monitor.flush()  # the accumulators of every step so far (MPI batches them)
+            if where is not None:
+                where.to_host()
             self.write(self.section, step, monitor)
         if signum:
             raise self._interrupted(signum, step)
@@ -480,9 +484,6 @@ def attach(sim, restart_arg: str | None) -> Checkpoints | None:
     params = getattr(sim.deck, "restart", None)
     if params is None and restart_arg is None:
         return None
-    if sim.device == "gpu":
-        raise InputError("checkpoints and restarts run on the CPU only", file=sim.deck.file, path=("Restart",) if params is not None else ("--restart",),
-                         fix="run with --device cpu, or remove the Restart section")
     cp = Checkpoints(sim, params)
     if restart_arg is None:  # Peridigm: a deck with a Restart section continues the state a previous deck left
         restart_arg = peridigm_continuation(cp.folder, sim.deck, cp.stem)
@@ -590,4 +591,5 @@ def _restore_monitor(sim, state: dict):
     m._rows = []
     m.batch = 1 if sim.comm.size == 1 else 16
     vars(m).update(state)
+    m.place(sim.host)
     return m

@@ -27,6 +27,8 @@ from ..parallel.comm import SerialComm
 from . import checks, limits
 from .blocks import Block, plan_fusion
 from .conditions import create_conditions
+from .placement import HostPlacement
+from ..kernels.scatter import apply_body_forces, apply_kinematic
 from .kernels import (
     bond_length_kernel,
     critical_time_step_kernel,
@@ -50,16 +52,14 @@ class Simulation:
                  write_files: bool = True, backend: str | None = None, device: str | None = None) -> None:
         self.deck = deck
         #: "cpu", or "gpu": explicit solvers run on one GPU (``--device``, else the solver's ``Device``)
-        self.device_backend = None
+        self._device_backend = None
         try:
             self.device, gpu_backend = resolve_device(deck, device, backend)
+            self._gpu_backend_name = gpu_backend or "cuda"
             #: where arrays live and bond loops run (``peridyn run --backend``, ``PERIDYN_BACKEND``); set-up runs here
             self.backend = select_backend(None if gpu_backend else backend)
             if self.device == "gpu" and write_files:  # ``peridyn check --device gpu`` needs no GPU
-                from ..kernels.numba_cuda import require_gpu
-
-                require_gpu()
-                self.device_backend = select_backend(gpu_backend or "cuda")
+                self.device_backend
         except InputError as exc:
             raise exc.in_file(deck.file) from None
         self.comm = comm or SerialComm()
@@ -79,6 +79,8 @@ class Simulation:
         #: what solver sections share (the implicit tangents' sparsity and storage, by kind)
         self.solver_cache: dict[str, Any] = {}
         self.contact = None
+        #: the explicit step's arrays where this simulation holds them (conditions, forces)
+        self.host = HostPlacement(self)
         self.interfaces = None
         self.element_nodes: np.ndarray | None = None
         #: checkpoints and restarts (:class:`peridyn.engine.restart.Checkpoints`; None: neither)
@@ -98,6 +100,17 @@ class Simulation:
 
             check_gpu(self)
         self.timers["setup"] = _time.perf_counter() - t0
+
+    @property
+    def device_backend(self) -> Any:
+        """The GPU backend of a "gpu" run (made when first asked for: a run that writes nothing,
+        such as ``peridyn check --device gpu``, needs no GPU until it steps), else None."""
+        if self._device_backend is None and self.device == "gpu":
+            from ..kernels.numba_cuda import require_gpu
+
+            require_gpu()
+            self._device_backend = select_backend(self._gpu_backend_name)
+        return self._device_backend
 
     # ============================================================================================
     # set-up
@@ -627,16 +640,10 @@ class Simulation:
                     raise RuntimeError(f"material {lead.material.name!r} declares row_local but its force_fused declined block {blk.name!r}")
 
     def apply_kinematic(self, t: float, t_prev: float) -> None:
-        for c in self.kinematic:
-            c.apply_kinematic(self, t, t_prev)
+        apply_kinematic(self.host, self.kinematic, t, t_prev)
 
     def apply_body_forces(self, t: float) -> None:
-        if not self.force_conditions:
-            return
-        b = self.fields["External_Force_Density"]
-        b[:] = 0.0
-        for c in self.force_conditions:
-            c.apply_force(self, t)
+        apply_body_forces(self.host, self.force_conditions, t)
 
     def load_data(self, t: float) -> None:
         if self.data_loader is not None:

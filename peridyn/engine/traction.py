@@ -28,6 +28,7 @@ from pydantic import Field, model_validator
 from ..core.errors import InputError, InstabilityError
 from ..core.params import ModelParams
 from ..deck.regions import layer_thicknesses
+from ..kernels import scatter as S
 from .conditions import BoundaryCondition
 
 __all__ = ["SurfaceTraction", "TractionParams"]
@@ -67,6 +68,8 @@ class SurfaceTraction(BoundaryCondition):
     Params = TractionParams  # type: ignore[assignment]
     stage = "force"
     target = "body_force"
+    devices = frozenset({"cpu", "gpu"})
+    _once: tuple[np.ndarray, np.ndarray] | None = None  #: (distinct points, their force densities at Scale 1)
 
     def __init__(self, params: TractionParams, *, entry_name: str = "") -> None:
         # not BoundaryCondition.__init__: there is no Value or Coordinate, the Scale is a function of t alone
@@ -93,6 +96,7 @@ class SurfaceTraction(BoundaryCondition):
         return [f"Scale: {problem}; give a finite value"] if problem else []
 
     def prepare(self, sim: Any, members: np.ndarray, region: Any, surface: Callable[[], Any]) -> None:
+        self._once = None
         members = np.unique(members)
         volume = np.asarray(sim.discretization.volume, dtype=float)
         where = ("Boundary Conditions", self.entry_name)
@@ -141,6 +145,12 @@ class SurfaceTraction(BoundaryCondition):
             raise InstabilityError(f"{text}; the run stops before using it (no output frame holds it)", collective=False)
         return value
 
-    def apply_force(self, sim: Any, t: float) -> None:
+    def apply_force(self, where: Any, t: float) -> None:
         if len(self.points):
-            sim.fields["External_Force_Density"][self.points] += self.scale(t) * self.density
+            # each point once (a node set may list one twice; the force is the point's, not the entry's)
+            if self._once is None:
+                points, rows = np.unique(self.points, return_index=True)
+                self._once = points, np.ascontiguousarray(self.density[rows])
+            points, density = self._once
+            S.scatter(where, S.ADD_SCALED, len(points), (where.resident(points), self.scale(t), where.resident(density),
+                                                         where.fields["External_Force_Density"]))

@@ -496,13 +496,16 @@ class DeviceContact:
         return ContactPairs(offsets, np.ascontiguousarray(rows[take], np.int32), np.ascontiguousarray(visits[take], np.uint8))
 
     def to_host(self) -> None:
-        """Give the manager the short list and the smallest pair distance so far, so that its
-        ``potential_energy`` (on the host fields, downloaded by the caller) and ``diagnosis``
-        answer for the GPU run."""
+        """Give the manager the short list, the smallest pair distance so far and the search's
+        positions, so that its ``potential_energy`` (on the host fields, downloaded by the
+        caller), ``diagnosis`` and a checkpoint answer for the GPU run."""
         md, when = self.running_min.copy_to_host()
         self.stats["min_distance"] = float(md)
         self.stats["min_distance_time"] = float(when)
         self.manager.pairs = self.pairs()
+        self.s.copy_to_host(self.manager.s)  # the search's reference positions and where the list was built: a checkpoint's
+        if self.valid:
+            self.manager.y_build = self.y_build.copy_to_host()
 
     # -- what the manager computes on the host -------------------------------------------------------
     def potential_energy(self) -> float | None:

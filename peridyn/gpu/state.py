@@ -80,6 +80,16 @@ class DeviceFields:
             if name in self._n:
                 self._n[name].copy_to_host(h.n(name))
 
+    def upload(self, names: list[str]) -> None:
+        """Copy the host store's arrays of ``names`` (NP1, and N of two-step fields) to the device:
+        fields a host-side step wrote (the data loader's, the Python API's ``Model.set``); a
+        field not yet on the device is copied when first read."""
+        for name in names:
+            if name in self._np1:
+                self._np1[name].copy_to_device(self.host[name])
+            if name in self._n:
+                self._n[name].copy_to_device(self.host.n(name))
+
     def nbytes(self) -> int:
         return sum(int(a.nbytes) for a in self._np1.values()) + sum(int(a.nbytes) for a in self._n.values())
 
@@ -135,12 +145,6 @@ class DeviceModel:
     def force_view(self, blk):
         """The view a fused block's material computes its group's forces on."""
         return self.fused_views.get(blk.index, self.views[blk.index])
-
-    def set_time(self, time: float, dt: float | None = None) -> None:
-        for v in list(self.views.values()) + list(self.fused_views.values()):
-            v.time = time
-            if dt is not None:
-                v.time_step = dt
 
     def memory_per_point(self) -> float:
         """Bytes of device fields and bonds per owned point."""

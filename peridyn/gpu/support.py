@@ -7,8 +7,6 @@ from typing import Any
 
 from ..core.errors import InputError
 
-#: boundary conditions the GPU step applies (initial conditions are applied in set-up, on the CPU)
-GPU_CONDITIONS = frozenset({"PrescribedDisplacement", "PrescribedTemperature", "BodyForce"})
 GPU_SOLVERS = frozenset({"Verlet"})
 
 
@@ -36,11 +34,10 @@ def gpu_problems(sim: Any) -> list[tuple[tuple[str, ...], str]]:
                         "varies, so its forces need the engine's bond-force gather, which has no GPU path yet"))
     if sim.contact is not None and "gpu" not in type(sim.contact.model).devices:
         out.append((("Contact",), f"the contact model {sim.contact.model.name!r} has no GPU kernels"))
-    if sim.data_loader is not None:
-        out.append((("Data Loader",), "the data loader has no GPU path"))
-    for c in list(sim.kinematic) + list(sim.force_conditions):
-        if type(c).__name__ not in GPU_CONDITIONS:
-            out.append((("Boundary Conditions", c.entry_name), f"the condition {c.name!r} has no GPU path"))
+    for c in list(sim.kinematic) + list(sim.force_conditions):  # initial conditions are applied in set-up, on the CPU
+        if "gpu" not in type(c).devices:
+            out.append((("Boundary Conditions", c.entry_name), f"the condition {c.name!r} has no GPU path (its step hook writes "
+                        "host arrays; a condition written with peridyn.kernels.scatter's laws declares devices = {'cpu', 'gpu'})"))
     if sim.comm.size > 1:
         out.append(((), "a run under MPI on GPUs (one GPU per rank) is not built yet"))
     return out

@@ -20,7 +20,7 @@ from typing import Callable
 
 from ..core.traversal import BondMap, Law, PairForce, PointMap, PointSum
 
-ROLES = ("term", "bond", "pair", "point", "finish", "gate", "both")
+ROLES = ("term", "bond", "pair", "point", "finish", "gate", "both", "update")
 
 
 def plain_function(fn: Callable) -> Callable:

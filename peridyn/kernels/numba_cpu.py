@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from typing import Any, Callable, ClassVar
 
-from ..core.traversal import Backend, Law
-from . import codegen
+from ..core.traversal import Backend, Law, PointReduction, PointUpdate
+from . import codegen, item_loops
 
 # The point loop calls a serial row function into which numba inlines the law's functions (its
 # IR, ``inline="always"``): inlined into the parallel loop itself numba's parfor analysis fails,
@@ -59,6 +59,9 @@ class NumbaBackend(Backend):
 
     def source(self, law: Law) -> str:
         """The generated module of ``law`` (its text names every function it compiles)."""
+        if isinstance(law, (PointUpdate, PointReduction)):
+            imports = codegen.imports(law, f'njit(error_model="numpy"{"" if law.allocates else ", _nrt=False"}, inline="always")')
+            return item_loops.cpu_source(law, imports, backend=self.name, parallel=self.parallel)
         loop = "for i in prange(start, stop):" if self.parallel else "for i in range(start, stop):"
         nrt = "" if law.allocates else ", _nrt=False"
         mirror = ""

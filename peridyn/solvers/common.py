@@ -6,11 +6,11 @@ import math
 from collections.abc import Callable
 
 import numpy as np
-from numba import njit
 from pydantic import Field, field_validator, model_validator
 
 from ..core.params import ModelParams
 from ..core.errors import InputError, InstabilityError
+from .verlet_laws import KINETIC_FREE, STEP_SUMS
 
 log = logging.getLogger("peridyn.solver")
 
@@ -65,68 +65,6 @@ def count_steps(t0: float, t1: float, dt: float, *, source: str, file: str | Non
                  "give a later 'Final Time' or a smaller time step; a step from the estimate may mean moduli in GPa, not Pa"),
         )
     return int(math.floor(steps))
-
-
-# serial on purpose: O(points) sums whose result must not depend on the thread count
-@njit(cache=True)
-def kinetic_free_kernel(n, v, mass, free):
-    """0.5 sum_i m_i sum_c v_ic^2 over free components (free: (n, 3) bool)."""
-    total = 0.0
-    for i in range(n):
-        s = 0.0
-        for c in range(3):
-            if free[i, c]:
-                s += v[i, c] * v[i, c]
-        total += 0.5 * mass[i] * s
-    return total
-
-
-@njit(cache=True)
-def step_account_kernel(n, du, f_old, f_new, b_old, b_new, volume, free, v, a, mass):
-    """One step's sums in one pass over the points: (internal work on all components, internal
-    work on prescribed components, body-force work on free components) by the trapezoidal rule
-    (b_old empty: no body force), the kinetic energy of the free components
-    (``kinetic_free_kernel`` of v), the sum of the force densities (finite or not),
-    ``kinetic_free_kernel`` of the accelerations a (a empty: 0) and ``kinetic_free_kernel`` of
-    the accelerations b_new / rho the loads alone give (0 without a body force). Each sum in
-    point order, the same bits as separate passes (cube40: one pass instead of four)."""
-    w_all = 0.0
-    w_presc = 0.0
-    w_body = 0.0
-    kinetic = 0.0
-    force = 0.0
-    shadow = 0.0
-    load = 0.0
-    has_b = b_old.shape[0] > 0
-    has_a = a.shape[0] > 0
-    for i in range(n):
-        w = 0.0
-        p = 0.0
-        q = 0.0
-        k = 0.0
-        g = 0.0
-        e = 0.0
-        for c in range(3):
-            fw = 0.5 * (f_old[i, c] + f_new[i, c]) * du[i, c]
-            w += fw
-            force += f_new[i, c]
-            if free[i, c]:
-                if has_b:
-                    q += 0.5 * (b_old[i, c] + b_new[i, c]) * du[i, c]
-                    e += b_new[i, c] * b_new[i, c]
-                k += v[i, c] * v[i, c]
-                if has_a:
-                    g += a[i, c] * a[i, c]
-            else:
-                p += fw
-        w_all += w * volume[i]
-        w_presc += p * volume[i]
-        w_body += q * volume[i]
-        kinetic += 0.5 * mass[i] * k
-        shadow += 0.5 * mass[i] * g
-        if e > 0.0:
-            load += 0.5 * volume[i] * volume[i] / mass[i] * e
-    return w_all, w_presc, w_body, kinetic, force, shadow, load
 
 
 #: largest energy balance error of a trusted run, relative to its energy (see EnergyMonitor)
@@ -204,7 +142,7 @@ class EnergyMonitor:
     fast_growth = 1000.0
 
     def __init__(self, sim, dt: float, dt_estimate: float, *, window: int = 10, accounting: bool = True, batch: int | None = None,
-                 beyond_limit: bool = False) -> None:
+                 beyond_limit: bool = False, where=None) -> None:
         self.sim = sim
         self.batch = batch if batch is not None else (1 if sim.comm.size == 1 else 16)
         self._rows: list[tuple[int, float, np.ndarray]] = []  # (step, time, local sums) not yet reduced
@@ -257,6 +195,12 @@ class EnergyMonitor:
         self.beyond_limit = beyond_limit
         if self.stored0 is not None and self.stored0 > self.floor:
             self._check_start()
+        self.place(where if where is not None else sim.host)
+
+    def place(self, where) -> None:
+        """Reduce each step's sums where the step's arrays are (``where``, a
+        :class:`~peridyn.core.placement.Placement`); seven numbers then cross to the host."""
+        self._step = (where, where.resident(self.free), where.resident(self.mass), where.zeros(STEP_SUMS.width))
 
     def supply(self) -> float:
         """S = K0 + E0 + |W_b| + |W_c| + 2 C_b (+ what the body released, where E0 is unknown): the
@@ -287,14 +231,20 @@ class EnergyMonitor:
     def _shadow_of(self, a: np.ndarray) -> float:
         """C = dt^2/8 sum_i m_i |a_i|^2 over the owned points' free components, for accelerations
         ``a`` (n, 3): dt^2/4 times the kinetic energy a velocity field ``a`` would have."""
-        return self._shadow_from(kinetic_free_kernel(self.sim.num_owned, a, self.mass, self.free))
+        return self._shadow_from(self._kinetic_of(a))
+
+    def _kinetic_of(self, v: np.ndarray) -> float:
+        """0.5 sum_i m_i |v_i|^2 over the owned points' free components, in point order (host arrays)."""
+        out = np.zeros(1)
+        self.sim.backend.kernel(KINETIC_FREE)(0, self.sim.num_owned, (v, self.mass, self.free), out)
+        return float(out[0])
 
     def _shadow_from(self, sum_: float) -> float:
-        """dt^2/4 times a ``kinetic_free_kernel`` sum of accelerations: C."""
+        """dt^2/4 times a ``_kinetic_of`` sum of accelerations: C."""
         return 0.25 * self.dt * self.dt * sum_
 
     def _kinetic_local(self) -> float:
-        return kinetic_free_kernel(self.sim.num_owned, self.sim.fields["Velocity"], self.mass, self.free)
+        return self._kinetic_of(self.sim.fields["Velocity"])
 
     def kinetic_free(self) -> float:
         return self.sim.comm.allreduce_sum(self._kinetic_local())
@@ -304,7 +254,7 @@ class EnergyMonitor:
         """Account for one step: displacement increment du (n, 3), internal force densities
         before/after, body force densities before/after (or None). The sums are reduced over
         ranks together with the next ``check`` (one reduction per step)."""
-        empty = self._empty
+        empty = self._step[0].no_vectors
         self._pending = (du, f_old, f_new, b_old if b_old is not None else empty, b_new if b_new is not None else empty)
 
     def created(self) -> float:
@@ -348,14 +298,16 @@ class EnergyMonitor:
     def check(self, step: int, time: float) -> None:
         """Account for the step just completed (after ``force_work``); raises InstabilityError."""
         sim = self.sim
-        n = sim.num_owned
+        where, free, mass, sums = self._step
+        f = where.fields
         work, self._pending = self._pending, None
-        a = sim.acceleration
+        a = where.acceleration
         if work is None:  # no force_work this step: no work done
-            f = sim.fields["Force_Density"]
-            work = (np.zeros_like(f), f, f, self._empty, self._empty)
-        w_all, w_presc, w_body, kinetic, force, shadow, load = step_account_kernel(
-            n, *work, sim.fields["Volume"], self.free, sim.fields["Velocity"], a if a is not None else self._empty, self.mass)
+            force = f["Force_Density"]
+            work = (where.zeros(force.shape), force, force, where.no_vectors, where.no_vectors)
+        args = (*work, f["Volume"], free, f["Velocity"], a if a is not None else where.no_vectors, mass)
+        where.backend.kernel(STEP_SUMS)(0, sim.num_owned, args, sums)
+        w_all, w_presc, w_body, kinetic, force, shadow, load = (float(v) for v in where.backend.to_host(sums))
         local = np.array([w_all, w_presc, w_body, kinetic, force, self._shadow_from(shadow), self._shadow_from(load)])
         if sim.comm.size == 1:
             self._account(step, time, local)

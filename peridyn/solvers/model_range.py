@@ -100,8 +100,10 @@ def rotation_angles(F: np.ndarray) -> np.ndarray:
 class RangeWatch:
     """Measures a run's deformation against its materials' declared ranges (see module doc)."""
 
-    def __init__(self, sim: Any, steps: int) -> None:
+    def __init__(self, sim: Any, steps: int, where: Any = None) -> None:
         self.sim = sim
+        #: the step's placement, whose positions and damage are brought to the host to be measured
+        self.where = where
         self.stride = max(1, steps // CHECKS_PER_SECTION)
         self.steps = steps
         self.blocks = [blk for blk in sim.blocks
@@ -114,6 +116,8 @@ class RangeWatch:
     def after_step(self, step: int) -> None:
         """Measure after ``step`` when one is due (every ``stride`` steps and at the last)."""
         if self.blocks and (step % self.stride == 0 or step == self.steps):
+            if self.where is not None:
+                self.where.to_host(["Coordinates", "Bond_Damage", "Damage"])
             self.measure()
 
     def measure(self) -> None:

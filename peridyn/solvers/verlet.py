@@ -12,18 +12,19 @@ import math
 import time as _time
 
 import numpy as np
-from numba import njit, prange
 from pydantic import Field
 
 from ..core.errors import InputError, InstabilityError
 from ..core.interfaces import Solver
 from ..core.params import ModelParams
+from ..core.placement import Placement
+from ..kernels.scatter import apply_body_forces, apply_kinematic
 from .common import EnergyMonitor, SolverSection, count_steps, judge_energy
 from .model_range import RangeWatch
 from .progress import Progress
+from .verlet_laws import ACCELERATE, COPY_VECTORS, DRIFT, KICK
 
 log = logging.getLogger("peridyn.solver")
-
 
 
 class VerletParams(ModelParams):
@@ -38,6 +39,8 @@ class VerletSection(SolverSection):
 class Verlet(Solver):
     name = "Verlet"
     Params = VerletSection
+    #: the placement of the run in progress (``steps``), None before it starts
+    placed: Placement | None = None
 
     def time_step(self, sim, *, warn: bool = True) -> tuple[float, float]:
         """(dt used, critical estimate)."""
@@ -131,155 +134,149 @@ class Verlet(Solver):
                            path=(self.section, "Verlet"), hint=sim.unit_slip_hint)
 
     def run(self, sim) -> None:
-        if sim.device == "gpu":
-            from .verlet_gpu import run
-
-            return run(self, sim)
         for _ in self.steps(sim):
             pass
 
-    def steps(self, sim):
-        """The CPU run as a generator: yields the step number after step 0 (the initial force
-        evaluation and output at t_initial) and after each time step; the run's statistics and
-        energy verdict follow the last one. ``run`` consumes it whole; ``peridyn.api.Model``
-        advances it step by step (the same operations in the same order)."""
+    def placement(self, sim) -> Placement:
+        """Where this run's step arrays live: the simulation's own (the CPU) or copies on the GPU
+        backend (made from the host state now: after set-up, or after a checkpoint was loaded)."""
+        if sim.device != "gpu":
+            return sim.host
+        from ..gpu.placement import DevicePlacement
+
+        return DevicePlacement(sim, sim.device_backend)
+
+    def steps(self, sim, *, host_each_step: bool = False):
+        """The run as a generator, on every target: yields the step number after step 0 (the
+        initial force evaluation and output at t_initial) and after each time step; the run's
+        statistics and energy verdict follow the last one. ``run`` consumes it whole;
+        ``peridyn.api.Model`` advances it step by step (the same operations in the same order),
+        with ``host_each_step`` (a GPU run's fields copied to the host at every yield)."""
         s = self.params
         dt, dt_crit = self.time_step(sim)
         t0 = s.initial_time
         nsteps = self._steps(sim, dt)
         dt2 = dt / 2.0
         n = sim.num_local
-        f = sim.fields
-        x, y, u, v = f["Model_Coordinates"], f["Coordinates"], f["Displacement"], f["Velocity"]
-        has_b = "External_Force_Density" in f
-        rho = sim.density_per_point()
-        no_b = np.zeros((0, 3))
-        a = sim.acceleration
-        if a is None:
-            a = sim.acceleration = np.zeros((n, 3))
+        on = "" if sim.device != "gpu" else " on the GPU"
+        log.info("%s: Verlet%s, dt = %.6g (critical estimate %.6g), %d steps from t = %.6g to %.6g", self.section, on, dt, dt_crit,
+                 nsteps, t0, t0 + nsteps * dt)
+        if sim.acceleration is None:
+            sim.acceleration = np.zeros((n, 3))
         sim.set_time_step(dt)
-        log.info("%s: Verlet, dt = %.6g (critical estimate %.6g), %d steps from t = %.6g to %.6g", self.section, dt, dt_crit, nsteps, t0, t0 + nsteps * dt)
-
-        contact = sim.contact
-
         restart = sim.restart
         # a run continued from a checkpoint: (the last step done, the energy monitor) there
         resumed = restart.resume(self, dt) if restart is not None else None
+        setup0 = _time.perf_counter()
+        where = self.placed = self.placement(sim)
+        f = where.fields
+        x, y, u, v = f["Model_Coordinates"], f["Coordinates"], f["Displacement"], f["Velocity"]
+        has_b = "External_Force_Density" in f
+        rho = where.resident(sim.density_per_point())
+        backend = where.backend
+        kick, drift, accelerate = backend.kernel(KICK), backend.kernel(DRIFT), backend.kernel(ACCELERATE)
+        contact = where.contact
         if resumed is None:
             # step 0
             sim.time_prev = sim.time = t = t0
-            sim.load_data(t)
-            sim.evaluate_forces()
+            where.load_data(t)
+            where.evaluate_forces()
             if contact is not None:
                 contact.add_force(f["Force_Density"], t, 0)
-            sim.apply_kinematic(t, t)
-            sim.apply_body_forces(t)
-            acceleration_kick_kernel(n, f["Force_Density"], f["External_Force_Density"] if has_b else no_b, rho, dt2, a, v, False)
-            sim.load_data(t)
+            apply_kinematic(where, sim.kinematic, t, t)
+            apply_body_forces(where, sim.force_conditions, t)
+            accelerate(0, n, (f["Force_Density"], f["External_Force_Density"] if has_b else where.no_vectors, rho, dt2,
+                              where.acceleration, v, False))
+            where.load_data(t)
+            where.to_host()
             sim.write_output(t)
             limit = self._measure(sim, dt, dt_crit, nsteps)
             if math.isfinite(limit):
                 log.info("%s: stable limit measured on the model: at most %.4g (%.3g x the estimate)", self.section, limit, limit / dt_crit)
 
-            monitor = EnergyMonitor(sim, dt, dt_crit, beyond_limit=dt >= limit)
+            monitor = EnergyMonitor(sim, dt, dt_crit, beyond_limit=dt >= limit, where=where)
             first = 1
         else:
             last, monitor = resumed
+            monitor.place(where)
             t = t0 + float(last) * dt
             first = last + 1
-        f_old = np.empty_like(f["Force_Density"])
-        b_old = np.empty_like(f["External_Force_Density"]) if has_b else None
-        du = np.empty_like(u)
+        f_old = where.zeros((n, 3))
+        b_old = where.zeros((n, 3)) if has_b else None
+        du = where.zeros((n, 3))
+        setup = _time.perf_counter() - setup0
         yield first - 1
         progress = Progress(nsteps, f"{self.section}", enabled=sim.progress)
-        watch = RangeWatch(sim, nsteps)
+        watch = RangeWatch(sim, nsteps, where)
+        writers = sim.outputs
         wall0 = _time.perf_counter()
         force_time = 0.0
-        for step in range(first, nsteps + 1):
-            t_prev = t
-            t = t0 + float(step) * dt
-            sim.time_prev, sim.time = t_prev, t
-            sim.begin_step(t)
-            if contact is not None:
-                contact.begin_step(step)
-            kick_kernel(n, v, a, dt2)
-            sim.apply_kinematic(t, t_prev)
-            np.copyto(f_old, f["Force_Density"])
-            if has_b:
-                np.copyto(b_old, f["External_Force_Density"])
-            sim.apply_body_forces(t)
-            drift_kernel(n, v, dt, x, u, y, du)
-            sim.load_data(t)
-            tf0 = _time.perf_counter()
-            sim.evaluate_forces()
-            if contact is not None:
-                contact.add_force(f["Force_Density"], t, step)
-            force_time += _time.perf_counter() - tf0
-            acceleration_kick_kernel(n, f["Force_Density"], f["External_Force_Density"] if has_b else no_b, rho, dt2, a, v, True)
-            monitor.force_work(du, f_old, f["Force_Density"], b_old, f["External_Force_Density"] if has_b else None)
-            sim.load_data(t)
-            monitor.check(step, t)
-            watch.after_step(step)
-            sim.write_output(t)
-            sim.advance()
-            progress.update(step)
-            if restart is not None:
-                restart.after_step(step, monitor)  # a checkpoint when due or signalled
-            yield step
+        try:
+            for step in range(first, nsteps + 1):
+                t_prev = t
+                t = t0 + float(step) * dt
+                sim.time_prev, sim.time = t_prev, t
+                sim.begin_step(t)
+                if contact is not None:
+                    contact.begin_step(step)
+                kick(0, n, (v, where.acceleration, dt2))
+                apply_kinematic(where, sim.kinematic, t, t_prev)
+                copy(where, f_old, f["Force_Density"])
+                if has_b:
+                    copy(where, b_old, f["External_Force_Density"])
+                apply_body_forces(where, sim.force_conditions, t)
+                drift(0, n, (v, dt, x, u, y, du))
+                where.load_data(t)
+                tf0 = _time.perf_counter()
+                where.evaluate_forces()
+                if contact is not None:
+                    contact.add_force(f["Force_Density"], t, step)
+                force_time += _time.perf_counter() - tf0
+                b_new = f["External_Force_Density"] if has_b else None
+                accelerate(0, n, (f["Force_Density"], b_new if has_b else where.no_vectors, rho, dt2, where.acceleration, v, True))
+                monitor.force_work(du, f_old, f["Force_Density"], b_old, b_new)
+                where.load_data(t)
+                monitor.check(step, t)
+                watch.after_step(step)
+                if host_each_step or writers.due_next():
+                    where.to_host()
+                sim.write_output(t)
+                where.advance()
+                progress.update(step)
+                if restart is not None:
+                    restart.after_step(step, monitor, where)  # a checkpoint when due or signalled
+                yield step
+        except InstabilityError:
+            where.to_host()  # the diagnosis and the last frame read the host's arrays
+            raise
+        backend.synchronize()
+        wall = _time.perf_counter() - wall0
+        where.to_host()
         monitor.flush()
         progress.close()
-        wall = _time.perf_counter() - wall0
         done = nsteps - first + 1  # the steps this process ran (fewer after a restart)
         log.debug("%s: energy monitor: largest C/S %.4g, largest (K - C)/S %.4g, start energy known %s", self.section,
                   monitor.resolution, monitor.max_excess, monitor.start_known)
-        sim.stats.setdefault("solvers", []).append(
-            {
-                "section": self.section,
-                "method": "Verlet",
-                "steps": done,
-                "dt": dt,
-                "dt_estimate": dt_crit,
-                "wall": wall,
-                "force_time": force_time,
-                "bond_evaluations": done * sim.num_bonds_global,
-                "point_steps": done * sim.num_global,
-                "contact": contact.summary() if contact is not None else None,
-                "energy": monitor.account(),
-            }
-        )
+        stats = {
+            "section": self.section,
+            "method": "Verlet",
+            "steps": done,
+            "dt": dt,
+            "dt_estimate": dt_crit,
+            "wall": wall,
+            "force_time": force_time if sim.device != "gpu" else wall,  # a GPU's launches return before their work is done
+            "bond_evaluations": done * sim.num_bonds_global,
+            "point_steps": done * sim.num_global,
+            "contact": contact.summary() if contact is not None else None,
+            "energy": monitor.account(),
+        }
+        if sim.device == "gpu":
+            stats.update(device="gpu", device_setup=setup, device_bytes_per_point=where.memory_per_point())
+        sim.stats.setdefault("solvers", []).append(stats)
         p = self.params.verlet
         judge_energy(monitor, self.section, dt, dt_crit, fixed_dt=p.fixed_dt is not None or p.safety_factor is None)
 
 
-@njit(cache=True, parallel=True)
-def kick_kernel(n, v, a, dt2):
-    """v += dt/2 a (the half kick before prescribed velocities are applied)."""
-    for i in prange(n):
-        for c in range(3):
-            v[i, c] += dt2 * a[i, c]
-
-
-@njit(cache=True, parallel=True)
-def drift_kernel(n, v, dt, x, u, y, du):
-    """du = dt v; y = (x + u) + du; u += du."""
-    for i in prange(n):
-        for c in range(3):
-            d = dt * v[i, c]
-            du[i, c] = d
-            y[i, c] = (x[i, c] + u[i, c]) + d
-            u[i, c] += d
-
-
-@njit(cache=True, parallel=True)
-def acceleration_kick_kernel(n, f, b, rho, dt2, a, v, kick):
-    """a = (f + b) / rho (b empty: no body force); then v += dt/2 a when ``kick``."""
-    has_b = b.shape[0] > 0
-    for i in prange(n):
-        for c in range(3):
-            acc = f[i, c]
-            if has_b:
-                acc += b[i, c]
-            acc /= rho[i]
-            a[i, c] = acc
-            if kick:
-                v[i, c] += dt2 * acc
+def copy(where: Placement, out, values) -> None:
+    """out[:] = values, two (n, 3) arrays on the placement ``where``."""
+    where.backend.kernel(COPY_VECTORS)(0, out.shape[0], (values, out))

@@ -37,11 +37,12 @@ SCRIPT = textwrap.dedent(
         compute_capability = (9, 0)
 
     cuda_dispatcher.get_current_device = lambda: NoDevice()
+    from peridyn.core.traversal import PointReduction, PointUpdate
+    from peridyn.gpu.placement import DevicePlacement
     from peridyn.kernels import codegen
+    from peridyn.kernels import scatter as S
     from peridyn.kernels.numba_cuda import CudaBackend
-    from peridyn.gpu import kernels as K
-    from peridyn.gpu.state import DeviceModel
-    from peridyn.solvers.verlet_gpu import evaluate_forces
+    from peridyn.solvers import verlet_laws as L
     from peridyn.testing.harness import build_simulation
 
     compiled = []
@@ -59,9 +60,16 @@ SCRIPT = textwrap.dedent(
             module = codegen.load_module(text, f"peridyn_kernel_ptx_{codegen.law_digest(law, text)}")
 
             def launch(*args):
-                sig = tuple(numba.typeof(a) for a in args)
-                for cc in ((8, 0), (9, 0)):
-                    compile_ptx(module._kernel.py_func, sig, cc=cc)
+                if isinstance(law, PointReduction):  # both passes of the fixed-order sum
+                    start, stop, a, out = args
+                    partial = np.zeros((1, law.width))
+                    targets = [(module._partials, (start, stop, a, partial)), (module._total, (partial, 1, out))]
+                else:
+                    targets = [(module._kernel, args)]
+                for fn, call in targets:
+                    sig = tuple(numba.typeof(a) for a in call)
+                    for cc in ((8, 0), (9, 0)):
+                        compile_ptx(fn.py_func, sig, cc=cc)
                 compiled.append(type(law).__name__ + ":" + "/".join(f.__name__ for f in codegen.law_functions(law).values()))
 
             return launch
@@ -75,26 +83,33 @@ SCRIPT = textwrap.dedent(
         def empty(self, dtype=float):
             return np.zeros(0, dtype=dtype)
 
+        def resident(self, array):
+            return np.ascontiguousarray(array)
+
         def to_host(self, array):
             return np.asarray(array)
 
     for tree in json.loads(sys.argv[1]):
         sim = build_simulation(tree["Peridigm"], directory=".")
-        evaluate_forces(sim, DeviceModel(sim, PTXBackend()))
+        DevicePlacement(sim, PTXBackend()).evaluate_forces()
 
-    f8 = numba.float64
-    v2, v1, b2, i1 = f8[:, ::1], f8[::1], numba.boolean[:, ::1], numba.int64[::1]
-    i8 = numba.int64
-    step = {
-        "kick": (i8, v2, v2, f8), "drift": (i8, v2, f8, v2, v2, v2, v2),
-        "acceleration_kick": (i8, v2, v2, v1, f8, v2, v2, numba.boolean), "fill": (v2, f8),
-        "set_component": (i1, i8, v1, v2), "set_scalar": (i1, v1, v1), "set_difference": (i1, v1, v1, v1),
-        "prescribed_displacement": (i1, i8, v1, v1, f8, v2, v2),
-        "energy_partials": (i8, v2, v2, v2, v2, v2, v1, b2, v2, v1, v2, v2), "reduce_partials": (v2, i8, v1),
-    }
-    for name, sig in step.items():
-        compile_ptx(getattr(K, name).py_func, sig, cc=(9, 0))
-        compiled.append("step:" + name)
+    # the step's point laws with the types the step calls them with
+    b = PTXBackend()
+    n = 4
+    v, e, s1 = np.zeros((n, 3)), np.zeros((0, 3)), np.zeros(n)
+    pts, free = np.arange(n, dtype=np.int64), np.ones((n, 3), dtype=bool)
+    b.kernel(L.KICK)(0, n, (v, v, 0.5))
+    b.kernel(L.DRIFT)(0, n, (v, 0.1, v, v, v, v))
+    b.kernel(L.ACCELERATE)(0, n, (v, e, s1, 0.5, v, v, True))
+    b.kernel(L.COPY_VECTORS)(0, n, (v, v))
+    b.kernel(L.STEP_SUMS)(0, n, (v, v, v, e, e, s1, free, v, v, s1), np.zeros(7))
+    b.kernel(L.KINETIC_FREE)(0, n, (v, s1, free), np.zeros(1))
+    b.kernel(S.ZERO_VECTORS)(0, n, (v,))
+    b.kernel(S.SET_COMPONENT)(0, n, (pts, 1, s1, v))
+    b.kernel(S.SET_SCALAR)(0, n, (pts, s1, s1))
+    b.kernel(S.SET_DIFFERENCE)(0, n, (pts, s1, s1, s1))
+    b.kernel(S.ADD_SCALED)(0, n, (pts, 0.5, v, v))
+    b.kernel(S.PRESCRIBED_DISPLACEMENT)(0, n, (pts, 1, s1, s1, 0.5, v, v, e))
     print(json.dumps({"compiled": compiled}))
     '''
 )
@@ -112,6 +127,7 @@ def test_every_gpu_kernel_of_the_explicit_step_compiles_to_ptx(tmp_path):
     # the laws of every model with a GPU path, and every kernel of the step
     for expected in ("PointSum:stretch_damage_term/point_damage/broken_gate", "PointSum:dilatation_term/thermal_shift/dilatation_finish",
                      "PointMap:coefficients_of_point", "PairForce:pair_force/coefficients_point", "PairForce:pair_force",
-                     "step:energy_partials", "step:prescribed_displacement"):
+                     "PointReduction:_step_sums", "PointUpdate:_prescribed_displacement", "PointUpdate:_accelerate",
+                     "PointUpdate:_add_scaled"):
         assert expected in names, sorted(names)
 

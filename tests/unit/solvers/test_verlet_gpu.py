@@ -111,6 +111,9 @@ CASES = {
     "bond_based_initial_damage_plane": lattice_deck(
         {"Material Model": "Elastic Bond Based", "Density": 7800.0, "Bulk Modulus": 130.0e9},
         damage={"Damage Model": "Initial Damage", "Bond Filters": {"Cut": PLANE}}, variables=("Displacement", "Velocity", "Damage")),
+    "lps_surface_traction_ramp": lattice_deck(STEEL, conditions={
+        "Pull": {"Type": "Surface Traction", "Node Set": "Left Node Set", "Traction": [0.0, 2.0e8, -1.0e8], "Area": 4.0e-6,
+                 "Scale": "min(t/3.0e-7, 1.0)"}}, variables=("Displacement", "Velocity", "Force_Density")),
     "lps_bond_filter": with_bond_filter(lattice_deck(STEEL, conditions=LOADS, variables=("Displacement", "Velocity", "Dilatation"))),
 }
 
