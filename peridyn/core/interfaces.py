@@ -209,7 +209,10 @@ class Material(ABC):
     row_local: ClassVar[bool] = False
     #: where the model computes: "cpu" (the numba backends), and "gpu" when every method the
     #: explicit step calls (``precompute``, ``force_fused``, ``stored_energy_density``) passes
-    #: only its view's arrays to compiled loop laws, so the GPU backend runs them on device arrays
+    #: only its view's arrays to compiled loop laws, so the GPU backend runs them on device
+    #: arrays. The GPU step computes forces only through ``force_fused`` (it must be overridden
+    #: and return True for every closed view); ``peridyn check --device gpu`` refuses a "gpu"
+    #: material without it, and the conformance kit compares its device forces with the CPU's
     devices: ClassVar[frozenset[str]] = frozenset({"cpu"})
     #: the range of the law (peridyn.solvers.model_range warns once when a run leaves it): the
     #: largest strain of an intact bond, and the largest rotation of a family (radians) for a

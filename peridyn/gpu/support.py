@@ -6,6 +6,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..core.errors import InputError
+from ..core.interfaces import Material
 
 GPU_SOLVERS = frozenset({"Verlet"})
 
@@ -16,12 +17,30 @@ def gpu_problems(sim: Any) -> list[tuple[tuple[str, ...], str]]:
     for solver, _, _ in sim.plan_solvers():
         if solver.name not in GPU_SOLVERS:
             out.append(((solver.section,), f"the solver {solver.name!r} has no GPU path (explicit 'Verlet' has)"))
+    out += model_problems(sim)
+    for c in list(sim.kinematic) + list(sim.force_conditions):  # initial conditions are applied in set-up, on the CPU
+        if "gpu" not in type(c).devices:
+            out.append((("Boundary Conditions", c.entry_name), f"the condition {c.name!r} has no GPU path (its step hook writes "
+                        "host arrays; a condition written with peridyn.kernels.scatter's laws declares devices = {'cpu', 'gpu'})"))
+    if sim.comm.size > 1:
+        out.append(((), "a run under MPI on GPUs (one GPU per rank) is not built yet"))
+    return out
+
+
+def model_problems(sim: Any) -> list[tuple[tuple[str, ...], str]]:
+    """(deck path, what has no GPU path) for the materials, damage models, blocks and contact of
+    ``sim`` (``gpu_problems`` without the solvers, conditions and ranks)."""
+    out: list[tuple[tuple[str, ...], str]] = []
     seen: set[int] = set()
     for blk in sim.blocks:
         m = blk.material
         if id(m) not in seen and "gpu" not in type(m).devices:
             seen.add(id(m))
             out.append((blk.path or ("Blocks", blk.name), f"the material {m.name!r} (block {blk.name!r}) has no GPU kernels"))
+        elif id(m) not in seen and type(m).force_fused is Material.force_fused:
+            seen.add(id(m))
+            out.append((blk.path or ("Blocks", blk.name), f"the material {m.name!r} (block {blk.name!r}) declares the GPU but has no "
+                        "fused force (Material.force_fused), the only force the GPU step computes"))
         d = blk.damage
         if d is not None and id(d) not in seen and "gpu" not in type(d).devices:
             seen.add(id(d))
@@ -34,12 +53,6 @@ def gpu_problems(sim: Any) -> list[tuple[tuple[str, ...], str]]:
                         "varies, so its forces need the engine's bond-force gather, which has no GPU path yet"))
     if sim.contact is not None and "gpu" not in type(sim.contact.model).devices:
         out.append((("Contact",), f"the contact model {sim.contact.model.name!r} has no GPU kernels"))
-    for c in list(sim.kinematic) + list(sim.force_conditions):  # initial conditions are applied in set-up, on the CPU
-        if "gpu" not in type(c).devices:
-            out.append((("Boundary Conditions", c.entry_name), f"the condition {c.name!r} has no GPU path (its step hook writes "
-                        "host arrays; a condition written with peridyn.kernels.scatter's laws declares devices = {'cpu', 'gpu'})"))
-    if sim.comm.size > 1:
-        out.append(((), "a run under MPI on GPUs (one GPU per rank) is not built yet"))
     return out
 
 

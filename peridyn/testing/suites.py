@@ -144,6 +144,39 @@ class MaterialConformance(MaterialPhysicsChecks):
         generic = self.force(sim)
         np.testing.assert_allclose(generic, fused, rtol=1e-12, atol=1e-12 * float(np.abs(fused).max()))
 
+    def test_the_gpu_step_gives_the_cpu_forces(self):
+        """A material that declares "gpu" in ``devices``: the GPU step accepts the model (what
+        ``peridyn check --device gpu`` and the run refuse, named) and its device forces on a
+        deformed irregular cloud are the CPU's, under numba-cuda's simulator
+        (``NUMBA_ENABLE_CUDASIM=1``: the CPU's arithmetic, to round-off) or on a GPU (the
+        difference of fused multiply-adds: 1e-9 of the force scale)."""
+        import pytest
+
+        with self._registry() as reg:
+            from ..plugins.manager import get_registry
+
+            cls = (reg or get_registry()).get("material", self.material)
+        if "gpu" not in cls.devices:
+            pytest.skip("the material declares no GPU path")
+        try:
+            from ..kernels.numba_cuda import CudaBackend, require_gpu, simulated
+
+            require_gpu()
+        except Exception as exc:  # noqa: BLE001 - no numba-cuda, no GPU and no simulator
+            pytest.skip(f"no GPU and no simulator to run the GPU path on ({exc}); set NUMBA_ENABLE_CUDASIM=1")
+        from ..gpu.placement import DevicePlacement
+        from ..gpu.support import model_problems
+
+        sim = self.scattered_simulation(n=5, seed=5)
+        self.deform(sim, seed=6)
+        problems = model_problems(sim)
+        assert not problems, f"the GPU step refuses the model: {problems}"
+        cpu = self.force(sim)
+        backend = CudaBackend()
+        gpu = backend.to_host(DevicePlacement(sim, backend).evaluate_forces())[: sim.num_owned]
+        scale = float(np.abs(cpu).max())
+        np.testing.assert_allclose(gpu, cpu[: sim.num_owned], rtol=0.0, atol=(1e-12 if simulated() else 1e-9) * scale)
+
     def test_row_local_parts_give_the_same_forces(self):
         """A material that declares ``row_local`` may be computed in parts (under MPI: the
         points without ghost neighbors while the halo messages travel); the forces must be the

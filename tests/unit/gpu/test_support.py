@@ -82,3 +82,18 @@ def test_without_a_gpu_the_run_says_so(tmp_path, monkeypatch):
     if proc.returncode == 0:
         pytest.skip("this machine has a GPU")
     refused(proc, "no CUDA GPU")
+
+
+def test_a_material_that_declares_the_gpu_without_a_fused_force_is_refused(tmp_path):
+    """The GPU step computes forces only through ``Material.force_fused``: a model that declares
+    "gpu" without one would die inside the run; the check names it first."""
+    from peridyn.core.interfaces import Material
+    from peridyn.gpu.support import model_problems
+    from peridyn.testing.harness import build_simulation
+
+    sim = build_simulation(lattice_deck(STEEL)["Peridigm"], directory=tmp_path)
+    assert model_problems(sim) == []
+    material = sim.blocks[0].material
+    material.__class__ = type("NoFusedForce", (type(material),), {"force_fused": Material.force_fused})
+    (path, what), = model_problems(sim)
+    assert "fused force" in what and "force_fused" in what
