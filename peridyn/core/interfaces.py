@@ -18,6 +18,7 @@ import numpy as np
 
 from .fields import FieldSpec, FieldStore
 from .params import ModelParams
+from .conditions import Condition
 from .placement import Placement
 from .traversal import Backend
 
@@ -401,9 +402,9 @@ class Simulation(Protocol):
     owner: np.ndarray  #: (num_local,) int rank that owns each local point
     halo: Any  #: ghost exchange: ``exchange(a)``, ``reverse_sum(a)``, ``begin(a)``/``end(p)`` (a no-op serially)
     precompute_fields: list[str]  #: fields materials precompute and the halo carries before forces
-    conditions: list[Any]  #: boundary and initial conditions bound to this rank's points, deck order
-    kinematic: list[Any]  #: the conditions applied before a step (prescribed displacement, temperature, pressure)
-    force_conditions: list[Any]  #: the conditions that set External_Force_Density (body forces)
+    conditions: list[Condition]  #: boundary and initial conditions bound to this rank's points, deck order
+    kinematic: list[Condition]  #: the conditions applied before a step (prescribed displacement, temperature, pressure)
+    force_conditions: list[Condition]  #: the conditions that set External_Force_Density (body forces)
     data_loader: Any | None  #: the deck's data loader (fields read from files over time), None without one
     outputs: Any  #: the output manager (``variables``: name -> variable of every output)
     contact: Any | None  #: the contact manager, None without a Contact section

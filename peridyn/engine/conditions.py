@@ -20,6 +20,7 @@ from pydantic import Field, field_validator
 
 from ..core.errors import InputError, InstabilityError, raise_collected
 from ..core.fields import FieldSpec, Length, Relation
+from ..core.conditions import Condition
 from ..core.interfaces import Simulation
 from ..core.params import ModelParams
 from ..core.placement import Placement
@@ -58,20 +59,12 @@ class BCParams(ModelParams):
         return repr(self.value) if isinstance(self.value, float) else self.value
 
 
-class BoundaryCondition:
-    """One deck entry of ``Boundary Conditions``. Subclasses set ``stage`` and override the hook
-    of that stage. ``self.points`` are the local indices (owned points) of the node set."""
+class BoundaryCondition(Condition):
+    """A condition whose value is a deck expression of (x, y, z, t) at the node set's reference
+    coordinates: the engine's implementation of :class:`~peridyn.core.conditions.Condition`.
+    Subclasses set ``stage`` (and ``devices``) and override the hook of that stage."""
 
-    name: ClassVar[str]
     Params: ClassVar[type[BCParams]] = BCParams
-    #: "initial", "kinematic" or "force"
-    stage: ClassVar[str]
-    #: what the condition acts on: "displacement", "velocity", "temperature", "body_force"
-    target: ClassVar[str]
-    scalar: ClassVar[bool] = False
-    #: where the condition's step hooks run: "cpu" (host arrays) and, for a condition written
-    #: with the point laws of ``peridyn.kernels.scatter``, "gpu" (any placement's arrays)
-    devices: ClassVar[frozenset[str]] = frozenset({"cpu"})
 
     def __init__(self, params: BCParams, *, entry_name: str = "") -> None:
         from ..deck.expressions import compile_expression
@@ -131,24 +124,6 @@ class BoundaryCondition:
             raise InputError(text.split(": ", 1)[1], path=("Boundary Conditions", self.entry_name),
                              fix="give a value that is finite at every point of the node set")
         raise InstabilityError(f"{text}; the run stops before using it (no output frame holds it)", collective=False)
-
-    # hooks (override one) ------------------------------------------------------------------
-    def apply_initial(self, sim: "Simulation") -> None:  # pragma: no cover - interface
-        raise NotImplementedError
-
-    def apply_kinematic(self, where: Placement, t: float, t_prev: float) -> None:  # pragma: no cover
-        """Stage "kinematic": the condition for the step t_prev -> t on the step's arrays ``where``."""
-        raise NotImplementedError
-
-    def apply_force(self, where: Placement, t: float) -> None:  # pragma: no cover
-        """Stage "force": the condition's share of External_Force_Density at time t on ``where``."""
-        raise NotImplementedError
-
-    def prepare(self, sim: "Simulation", members: np.ndarray, region: Any, surface: Callable[[], Any]) -> None:
-        """Called once after :meth:`bind` with the node set's points on *all* ranks (mothership
-        indices), its region (a ``RegionSpec``, None for a list of ids or a mesh node set) and a
-        function returning the discretization's free surface (``geometry.surface.Surface``,
-        computed once). Conditions that need the whole node set (a total force) override it."""
 
 
 class InitialVelocity(BoundaryCondition):

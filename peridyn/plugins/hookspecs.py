@@ -60,7 +60,7 @@ def peridyn_discretizations() -> ModelList:
 def peridyn_boundary_conditions() -> ModelList:
     """Boundary and initial condition types: the ``Type`` value in its tidied form (upper
     case, spaces as ``_``, e.g. ``"PRESCRIBED_DISPLACEMENT"``) and a path to a
-    :class:`peridyn.engine.conditions.BoundaryCondition` subclass."""
+    :class:`peridyn.engine.conditions.BoundaryCondition` subclass (the contract: :class:`peridyn.core.conditions.Condition`)."""
 
 
 @hookspec
