@@ -8,6 +8,7 @@ import time
 from typing import Any
 
 from .base import Check, Measurement, Problem
+from .lattice import interior_checks, interior_values
 
 K, MU = 160.0e9, 80.0e9  # Pa
 E0 = 9.0 * K * MU / (3.0 * K + MU)  # Pa, 205.7 GPa
@@ -77,7 +78,15 @@ class StaticModulus(Problem):
         "two-term model leaves out the edges' O((horizon / width)^2) term; 20 % on "
         "the surface coefficient is 2.2 % of E0 at this width; at 2.015 spacings the surface layer fills the section and the "
         "two-term prediction fails, +51 % against +33 %, so the ladder starts at 2.515). A shear modulus 10 % off moves E "
-        "by 8.6 %: it fails."
+        "by 8.6 %: it fails. **That band is a self-consistency check, not a reference**: the surface coefficient "
+        f"{SURFACE:g} was fitted to this model's own bars, so an error the fit would absorb (one that scales E by the same "
+        "factor at every width) is caught only through the lattice term. The independent reference of `Elastic` is exact: "
+        "the lattice's constants C11, C12, C44 read from the model's own forces of three quadratic fields at the points "
+        "two horizons inside a cube (`peridyn.verify.problems.lattice`: a nonlocal linear force of a quadratic field is "
+        "the local operator of the lattice's moduli, exactly) against the closed-form bond sums, band |C / C_lattice - 1| "
+        "<= 1e-6 for each (measured 2e-8 or less). K = 2 G, so 3K - 5G = G: the dilatation term is in the force. The bar's E "
+        "hardly sees it: the LPS dilatation factor 3 -> 2.9 moves the lattice's E by -0.07 % (closed form and measured), "
+        "inside the bar's 3 %, but C11 by -0.34 % and C12 by -0.8 %, which the interior band fails."
     )
     resolution_name = "delta/h"
     size_name = "h/delta"
@@ -119,10 +128,12 @@ class StaticModulus(Problem):
             pred = lps_prediction(resolution, width)
             values.update({"lattice E/E0 - 1": lattice_youngs_modulus(K, MU, resolution) / E0 - 1.0, "E_pred/E0 - 1": pred / E0 - 1.0,
                            "E/E_pred - 1": modulus / pred - 1.0})
+            values.update(interior_values(method, MATERIALS[method], K, MU, resolution, HORIZON))
         return Measurement(abs(modulus / E0 - 1.0), size=1.0 / resolution, steps=int(st.get("force_evaluations") or 1), values=values)
 
     def extra_checks(self, method: str, points: list[dict[str, Any]], quick: bool) -> list[Check]:
         if method != "Elastic":
             return []
-        return [Check(self.name, method, f"|E / E_pred - 1| at delta/h = {p['resolution']:g} (E_pred: lattice + surface layer)",
-                      abs(p["values"]["E/E_pred - 1"]), high=self.PREDICTION_BAND) for p in points]
+        return [Check(self.name, method, f"|E / E_pred - 1| at delta/h = {p['resolution']:g} (E_pred: lattice + surface layer "
+                      "fitted to this model's bars: a self-consistency check)",
+                      abs(p["values"]["E/E_pred - 1"]), high=self.PREDICTION_BAND) for p in points] + interior_checks(self.name, method, points)

@@ -33,9 +33,9 @@ def test_dispersion_quick_run_passes(tmp_path):
     assert entry["kind"] == "table" and len(entry["checks"]) == 6
     assert all(c["passed"] for c in entry["checks"]), entry["checks"]
     by = {(p["method"], p["resolution"]): p["values"] for p in entry["points"]}
-    # the departure from c0 at k delta = 3 is the peridynamic one (17 % and 18 % slow), not zero
+    # the departure from c0 at k delta = 3 is the peridynamic one (17 % and 22 % slow), not zero
     assert by[("Elastic Bond Based", 3.0)]["c/c0 - 1"] == pytest.approx(-0.168, abs=2e-3)
-    assert by[("Elastic", 3.0)]["c/c0 - 1"] == pytest.approx(-0.177, abs=3e-3)
+    assert by[("Elastic", 3.0)]["c/c0 - 1"] == pytest.approx(-0.219, abs=3e-3)
     assert "dispersion" in (tmp_path / "report.md").read_text()
 
 
