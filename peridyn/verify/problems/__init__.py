@@ -6,6 +6,7 @@ from .branching import GlassBranching
 from .brazilian import BrazilianDisk
 from .contact import ContactStability, Hertz
 from .contact_penalty import HertzPenalty
+from .critical_stretch import CriticalStretch
 from .base import Check, Measurement, Problem
 from .dispersion import Dispersion
 from .dynamics import Stability, VerletEnergy
@@ -15,6 +16,7 @@ from .experiments import KalthoffWinkler
 from .families import Diffusion, PlasticityUniaxial, ViscoelasticRelaxation
 from .griffith import Griffith
 from .j_integral import JIntegral
+from .lattice import LatticeConstants
 from .newmark import NewmarkEnergy
 from .parallel import ParallelAgreement
 from .static import StaticModulus
@@ -23,8 +25,8 @@ from .static import StaticModulus
 PROBLEMS: dict[str, type[Problem]] = {
     cls.name: cls
     for cls in (
-        WaveSpeed, Dispersion, ForceConvergence, VerletEnergy, NewmarkEnergy, Stability, ContactStability, ParallelAgreement, ExtremeCases, StaticModulus,
-        PoissonRatio, Kirsch, DeltaConvergence, Griffith, JIntegral, KalthoffWinkler, GlassBranching, BrazilianDisk, Diffusion, ViscoelasticRelaxation, PlasticityUniaxial,
+        WaveSpeed, Dispersion, LatticeConstants, ForceConvergence, VerletEnergy, NewmarkEnergy, Stability, ContactStability, ParallelAgreement, ExtremeCases, StaticModulus,
+        PoissonRatio, Kirsch, DeltaConvergence, CriticalStretch, Griffith, JIntegral, KalthoffWinkler, GlassBranching, BrazilianDisk, Diffusion, ViscoelasticRelaxation, PlasticityUniaxial,
         Hertz, HertzPenalty,
     )
 }
