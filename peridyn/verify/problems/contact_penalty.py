@@ -48,7 +48,11 @@ class HertzPenalty(Hertz):
         "bands hold: stiffness error at most 10 % at every point, 7 % at the finest, rate 0.6 .. 1.6 (3 points or more); "
         "C_el within 3 %, C_el (ring) within 4 %, exponent 1.45 .. 1.55, the finest error at most 0.9 of the coarsest, "
         "penetration rate 0.7 .. 1.5; the law error round-off (1e-9). A penalty stiffness taken from a wrong modulus, or "
-        "springs a tenth as stiff (penetration 3.4 times larger), fails them."
+        "springs a tenth as stiff (penetration 3.4 times larger), fails them. **This is the identity it looks like**: "
+        "with p = 200 the pair forces are those of `hertz`'s springs, so the runs reproduce `hertz` to round-off (its "
+        "figures and numbers match `hertz`'s by construction). What this problem adds is the penalty law itself (the law "
+        "error against PeriLab's formula recomputed from the positions, and the penalty factor read through the "
+        "material's bulk modulus), not a second, independent comparison with Hertz."
     )
 
     def deck(self, n: int, folder: Path, spring: float | None = None) -> tuple[dict[str, Any], dict[str, float]]:
