@@ -1,11 +1,13 @@
 """``peridyn verify``: verification problems, each run at a ladder of resolutions, their error
 against wall time, fitted convergence rates and stability limits, checked against stated bands.
 
-- :mod:`.problems`: the problems (``PROBLEMS``: wave-speed, force-convergence, verlet-energy,
-  stability, extreme-cases, static-modulus, griffith), each with what it computes, its exact or reference answer and its bands;
+- :mod:`.problems`: the problems (``PROBLEMS``, by name), each with what it computes, its exact or
+  reference answer and its bands;
 - :mod:`.runner`: runs the points serially, times them, rewrites ``results.json`` after each;
 - :mod:`.report`: ``report.md`` and the figures (``peridyn[plot]``: matplotlib);
-- :mod:`.fit`: fitted rates.
+- :mod:`.fit`: fitted rates;
+- :mod:`.mutation` and :mod:`.mutations`: physics errors put into a copy of the package, and the
+  problems that must catch each (docs/verify.md).
 """
 from __future__ import annotations
 
