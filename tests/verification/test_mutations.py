@@ -4,7 +4,7 @@ problems that measure them fail with exit 1 and a named band check (not a crashe
 the unchanged package passes the same problems. The full catalogue runs in
 benchmarks/verify_mutations.py (results: benchmarks/results/verify_mutations.md).
 
-Measured on 2 shared cores: about 40 s per mutation (kernels compiled cold), 3 min in all."""
+Measured on 2 shared cores: 30-125 s per mutation (kernels compiled cold), 2 min 12 s in all."""
 import pytest
 
 from peridyn.verify.mutation import run_mutation, run_problems
