@@ -193,9 +193,9 @@ class EnergyMonitor:
         #: the step is above the stable limit measured on the model (a run too short for the
         #: unstable vibration to grow much was let start): any energy error it shows stops the run
         self.beyond_limit = beyond_limit
+        self.place(where if where is not None else sim.host)
         if self.stored0 is not None and self.stored0 > self.floor:
             self._check_start()
-        self.place(where if where is not None else sim.host)
 
     def place(self, where) -> None:
         """Reduce each step's sums where the step's arrays are (``where``, a
@@ -428,6 +428,7 @@ class EnergyMonitor:
         """The point whose vector (rows of ``vectors``, local points) is not finite, else the
         largest, over all ranks ("" where there is none)."""
         sim = self.sim
+        self._step[0].to_host()  # a GPU run's arrays, for the diagnosis
         n = sim.num_owned
         where, size = "", -1.0
         if n and vectors is not None:
@@ -451,6 +452,7 @@ class EnergyMonitor:
         return self._locate(self.sim.acceleration)
 
     def _advice(self) -> str:
+        self._step[0].to_host()  # the contact's state of a GPU run
         contact = self.sim.contact
         note = contact.diagnosis(self.dt) if contact is not None else ""
         if note.startswith("contact springs"):  # the contact springs are what the step cannot resolve

@@ -153,6 +153,7 @@ class Verlet(Solver):
         ``peridyn.api.Model`` advances it step by step (the same operations in the same order),
         with ``host_each_step`` (a GPU run's fields copied to the host at every yield)."""
         s = self.params
+        instability = InstabilityError  # bound here: a generator left open is closed at exit, after module globals are gone
         dt, dt_crit = self.time_step(sim)
         t0 = s.initial_time
         nsteps = self._steps(sim, dt)
@@ -246,7 +247,7 @@ class Verlet(Solver):
                 if restart is not None:
                     restart.after_step(step, monitor, where)  # a checkpoint when due or signalled
                 yield step
-        except InstabilityError:
+        except instability:
             where.to_host()  # the diagnosis and the last frame read the host's arrays
             raise
         backend.synchronize()
