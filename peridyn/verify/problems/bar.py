@@ -162,7 +162,6 @@ class WaveSpeed(Problem):
             lo, hi = x.min(axis=0) + 2.0 * DELTA, x.max(axis=0) - 2.0 * DELTA
             inside = np.all((x >= lo - 1e-9 * h) & (x <= hi + 1e-9 * h), axis=1)
             c0 = ref = math.sqrt((K + 4.0 * self.SHEAR / 3.0) / RHO)
-            from .dispersion import lps_lattice  # dispersion imports this module
 
             lattice = lps_lattice(self.KDELTA, resolution)
         u = 1.0e-6 * np.sin(k * x[:, 0] + 0.3)
@@ -185,3 +184,32 @@ class WaveSpeed(Problem):
         p = points[-1]
         return [Check(self.name, method, f"|c/c0 - 1| at the finest delta/h = {p['resolution']:g} (k delta = {self.KDELTA})",
                       abs(p["values"]["c/c0 - 1"]), high=self.C0_BAND)]
+
+
+def lps_omega2(s: float, t: float, m: float) -> float:
+    """rho omega^2 / rho = omega^2 (1/s^2) of the linearised LPS solid (influence function 1)
+    for a longitudinal plane wave along x, from the family integrals (sums) of ``s`` = sum
+    xi_x sin(k xi_x) V, ``t`` = sum (xi_x / |xi|)^2 (1 - cos(k xi_x)) V and ``m`` = sum |xi|^2 V.
+
+    Derivation: with e_ij = xi_x/|xi| (u_j - u_i), theta_i = (3/m) sum |xi| e V = i (3 s / m) u_i
+    and t_ij = ((3K - 5G)/m) theta_i |xi| + (15 G / m) e_ij, the force density
+    f_i = sum (t_ij + t_ji) xi_x/|xi| V_j (theta_j = theta_i e^{i k xi_x}) is
+    -(3 (3K - 5G) s^2 / m^2 + 30 G t / m) u_i."""
+    return (3.0 * (3.0 * K - 5.0 * LPS_SHEAR) * s * s / (m * m) + 30.0 * LPS_SHEAR * t / m) / RHO
+
+
+def lps_lattice(kdelta: float, ratio: float) -> float:
+    """The exact phase velocity (m/s) of the LPS solid on the infinite cubic lattice of spacing
+    h = delta/ratio (full point volumes h^3, family |xi| <= delta): :func:`lps_omega2` with the
+    lattice sums."""
+    k, h = kdelta / DELTA, DELTA / ratio
+    r = int(math.ceil(ratio))
+    g = np.arange(-r, r + 1) * h
+    xi = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
+    norm = np.linalg.norm(xi, axis=1)
+    keep = (norm > 0.0) & (norm <= DELTA * (1.0 + 1e-12))
+    xi, norm = xi[keep], norm[keep]
+    v = h**3
+    s = float(np.sum(xi[:, 0] * np.sin(k * xi[:, 0]))) * v
+    t = float(np.sum((xi[:, 0] / norm) ** 2 * (1.0 - np.cos(k * xi[:, 0])))) * v
+    return math.sqrt(lps_omega2(s, t, float(np.sum(norm**2)) * v)) / k

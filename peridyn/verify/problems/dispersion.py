@@ -11,7 +11,7 @@ import numpy as np
 from scipy.integrate import quad
 
 from ...testing import build_simulation, cube_deck
-from .bar import DELTA, K, LPS_SHEAR, RHO, model_force, bar, cin, micromodulus
+from .bar import DELTA, K, LPS_SHEAR, RHO, bar, cin, lps_lattice, lps_omega2, micromodulus, model_force
 from .base import Check, Measurement, Problem
 
 if TYPE_CHECKING:
@@ -67,18 +67,6 @@ def p_wave_speed() -> float:
     return math.sqrt((K + 4.0 * SHEAR / 3.0) / RHO)
 
 
-def lps_omega2(s: float, t: float, m: float) -> float:
-    """rho omega^2 / rho = omega^2 (1/s^2) of the linearised LPS solid (influence function 1)
-    for a longitudinal plane wave along x, from the family integrals (sums) of ``s`` = sum
-    xi_x sin(k xi_x) V, ``t`` = sum (xi_x / |xi|)^2 (1 - cos(k xi_x)) V and ``m`` = sum |xi|^2 V.
-
-    Derivation: with e_ij = xi_x/|xi| (u_j - u_i), theta_i = (3/m) sum |xi| e V = i (3 s / m) u_i
-    and t_ij = ((3K - 5G)/m) theta_i |xi| + (15 G / m) e_ij, the force density
-    f_i = sum (t_ij + t_ji) xi_x/|xi| V_j (theta_j = theta_i e^{i k xi_x}) is
-    -(3 (3K - 5G) s^2 / m^2 + 30 G t / m) u_i."""
-    return (3.0 * (3.0 * K - 5.0 * SHEAR) * s * s / (m * m) + 30.0 * SHEAR * t / m) / RHO
-
-
 def _mu_sin(a: float) -> float:
     """int_{-1}^{1} mu sin(a mu) dmu = 2 (sin a - a cos a) / a^2 (its series below a = 1, where
     the closed form cancels)."""
@@ -103,23 +91,6 @@ def lps_relation(kdelta: float) -> float:
     s = quad(lambda r: 2.0 * math.pi * r**3 * _mu_sin(k * r), 0.0, DELTA, epsabs=0.0, epsrel=1e-12, limit=200)[0]
     t = quad(lambda r: 2.0 * math.pi * r**2 * _mu2_one_minus_cos(k * r), 0.0, DELTA, epsabs=0.0, epsrel=1e-12, limit=200)[0]
     return math.sqrt(lps_omega2(s, t, 4.0 * math.pi * DELTA**5 / 5.0)) / k
-
-
-def lps_lattice(kdelta: float, ratio: float) -> float:
-    """The exact phase velocity (m/s) of the LPS solid on the infinite cubic lattice of spacing
-    h = delta/ratio (full point volumes h^3, family |xi| <= delta): :func:`lps_omega2` with the
-    lattice sums."""
-    k, h = kdelta / DELTA, DELTA / ratio
-    r = int(math.ceil(ratio))
-    g = np.arange(-r, r + 1) * h
-    xi = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
-    norm = np.linalg.norm(xi, axis=1)
-    keep = (norm > 0.0) & (norm <= DELTA * (1.0 + 1e-12))
-    xi, norm = xi[keep], norm[keep]
-    v = h**3
-    s = float(np.sum(xi[:, 0] * np.sin(k * xi[:, 0]))) * v
-    t = float(np.sum((xi[:, 0] / norm) ** 2 * (1.0 - np.cos(k * xi[:, 0])))) * v
-    return math.sqrt(lps_omega2(s, t, float(np.sum(norm**2)) * v)) / k
 
 
 class Dispersion(Problem):
