@@ -21,7 +21,7 @@ import time
 import numpy as np
 from scipy.special import sici
 
-from peridyn.solvers.verlet import Verlet, VerletSection
+from peridyn.solvers.explicit.verlet import Verlet, VerletSection
 from peridyn.testing import build_simulation, cube_deck
 
 K = 1.0e9

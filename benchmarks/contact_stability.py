@@ -202,7 +202,7 @@ def machine() -> str:
     files = sorted((src / "contact").glob("*.py")) + [src / "solvers" / "common.py", src / "solvers" / "verlet.py"]
     digest = hashlib.sha1(b"".join(f.read_bytes() for f in files)).hexdigest()[:10]
     lines.append(f"Python {platform.python_version()}, numpy {np.__version__}, peridyn at {sh('git', '-C', str(HERE.parent), 'describe', '--always', '--dirty')}"
-                 f" (sha1 of peridyn/contact/*.py + solvers/common.py + solvers/verlet.py: {digest})")
+                 f" (sha1 of peridyn/contact/*.py + solvers/monitors/energy.py + solvers/explicit/verlet.py: {digest})")
     return "\n".join(f"    {ln}" for ln in lines)
 
 

@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from peridyn.io.exodus_reader import read_results
-from peridyn.solvers.qs_common import LoadStepError
+from peridyn.solvers.implicit.load_steps import LoadStepError
 from peridyn.testing.harness import build_simulation, node_set_ids
 
 DX = 1.0e-3

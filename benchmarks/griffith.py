@@ -127,7 +127,7 @@ def growth(m: int) -> None:
         print(f"  t = {t:.3f}  sigma/sigma_G = {sigma / sigma_G:.4f}  broken bonds {broken}  tip at {tip:.1f} dx (a = {a_cells} dx)", flush=True)
 
     sim.write_output = record
-    from peridyn.solvers.quasistatic import LoadStepError
+    from peridyn.solvers.implicit.quasistatic import LoadStepError
 
     try:
         sim.run_solvers()

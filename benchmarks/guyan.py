@@ -76,7 +76,7 @@ def pieces(ratio: float) -> None:
 
     from peridyn.solvers.linalg.guyan import StaticCondensation
     from peridyn.solvers.linalg.linear import LU_ORDERING
-    from peridyn.solvers.newton import ImplicitProblem
+    from peridyn.solvers.implicit.problem import ImplicitProblem
     from peridyn.testing import build_simulation
     from peridyn.testing.tensile import tensile_bar
 

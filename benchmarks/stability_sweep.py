@@ -14,7 +14,7 @@ import numpy as np
 import logging
 
 from peridyn.core.errors import InstabilityError
-from peridyn.solvers.verlet import Verlet, VerletSection
+from peridyn.solvers.explicit.verlet import Verlet, VerletSection
 from peridyn.testing import build_simulation, cube_deck
 
 MATERIALS = {

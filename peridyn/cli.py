@@ -19,7 +19,7 @@ _LOG_JSON = {"on": False}
 
 
 def _setup_logging(verbosity: int, rank: int = 0) -> None:
-    from .solvers.progress import structured_progress
+    from .solvers.monitors.progress import structured_progress
 
     as_json = bool(_LOG_JSON["on"])
     setup_logging(verbosity, rank, as_json=as_json)

@@ -20,7 +20,7 @@ import numpy as np
 from ..core.errors import InputError, InstabilityError, PeridynError
 from ..core.fields import Temporal
 from ..deck.model import tidy
-from ..solvers.verlet import Verlet
+from ..solvers.explicit.verlet import Verlet
 from .checks import (ArgumentError, ArgumentTypeError, UnknownNameError, a_callable, finite_number, name_text, real_array,
                      region_mapping, whole_number)
 from .decks import DeckLike, build_deck, point_indices, points_deck

@@ -215,7 +215,7 @@ class Material(ABC):
     #: and return True for every closed view); ``peridyn check --device gpu`` refuses a "gpu"
     #: material without it, and the conformance kit compares its device forces with the CPU's
     devices: ClassVar[frozenset[str]] = frozenset({"cpu"})
-    #: the range of the law (peridyn.solvers.model_range warns once when a run leaves it): the
+    #: the range of the law (peridyn.solvers.monitors.model_range warns once when a run leaves it): the
     #: largest strain of an intact bond, and the largest rotation of a family (radians) for a
     #: law whose strain is not rotation invariant; None: no limit (nonlinear, finite-strain laws)
     small_strain_limit: ClassVar[float | None] = None

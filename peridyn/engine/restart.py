@@ -580,7 +580,7 @@ def _bond_index(sim, saved_keys: np.ndarray) -> np.ndarray:
 
 def _restore_monitor(sim, state: dict):
     """The energy monitor of the checkpoint's step, on this model (any number of ranks)."""
-    from ..solvers.common import EnergyMonitor
+    from ..solvers.monitors.energy import EnergyMonitor
 
     m = EnergyMonitor.__new__(EnergyMonitor)
     n = sim.num_owned

@@ -16,7 +16,7 @@ pi delta^4 / 3), so the model is a nonlocal heat-conduction operator with diffus
 There is no density or elastic constant: ``density`` is 1 (Peridigm's ``Density()``) and the
 bulk modulus does not exist (Peridigm throws), so explicit dynamics (Verlet, whose stable time
 step needs it) cannot run with this material. The material produces no force; only the
-``ImplicitDiffusion`` solver (:mod:`peridyn.solvers.implicit_diffusion`) advances the
+``ImplicitDiffusion`` solver (:mod:`peridyn.solvers.implicit.diffusion`) advances the
 temperature. Its Jacobian dQ_i V_i / dT is exact (the flux is linear in T):
 d(Q_i V_i)/dT_j = (kappa k_ij w_ij) V_i and d(Q_i V_i)/dT_i = -sum_j of those.
 

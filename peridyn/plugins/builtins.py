@@ -111,11 +111,11 @@ def peridyn_contact_models():
 @hookimpl
 def peridyn_solvers():
     return [
-        ("Verlet", "peridyn.solvers.verlet:Verlet"),
-        ("QuasiStatic", "peridyn.solvers.quasistatic:QuasiStatic"),
-        ("NOXQuasiStatic", "peridyn.solvers.nox:NOXQuasiStatic"),
-        ("Implicit", "peridyn.solvers.implicit:Implicit"),
-        ("ImplicitDiffusion", "peridyn.solvers.implicit_diffusion:ImplicitDiffusion"),
+        ("Verlet", "peridyn.solvers.explicit.verlet:Verlet"),
+        ("QuasiStatic", "peridyn.solvers.implicit.quasistatic:QuasiStatic"),
+        ("NOXQuasiStatic", "peridyn.solvers.implicit.nox:NOXQuasiStatic"),
+        ("Implicit", "peridyn.solvers.implicit.newmark:Implicit"),
+        ("ImplicitDiffusion", "peridyn.solvers.implicit.diffusion:ImplicitDiffusion"),
     ]
 
 

@@ -29,7 +29,7 @@ MUTATIONS: tuple[Mutation, ...] = (
     ),
     Mutation(
         "verlet-kick-x1.1", "velocity Verlet's first half kick 10 % too large",
-        (S("solvers/verlet_laws.py", "        v[i, c] += dt2 * a[i, c]\n", "        v[i, c] += (1.1 * dt2) * a[i, c]\n"),),
+        (S("solvers/explicit/laws.py", "        v[i, c] += dt2 * a[i, c]\n", "        v[i, c] += (1.1 * dt2) * a[i, c]\n"),),
         ("verlet-energy",), area="solvers",
     ),
     Mutation(
@@ -98,12 +98,12 @@ MUTATIONS: tuple[Mutation, ...] = (
     ),
     Mutation(
         "verlet-drift-x1.01", "velocity Verlet's drift du = dt v 1 % too long",
-        (S("solvers/verlet_laws.py", "        d = dt * v[i, c]\n", "        d = (1.01 * dt) * v[i, c]\n"),),
+        (S("solvers/explicit/laws.py", "        d = dt * v[i, c]\n", "        d = (1.01 * dt) * v[i, c]\n"),),
         ("verlet-energy",), area="solvers",
     ),
     Mutation(
         "newmark-beta-x1.2", "Newmark's beta 1.2 times the deck's (0.3 for 1/4)",
-        (S("solvers/implicit.py", "beta, gamma = ip.beta, ip.gamma", "beta, gamma = 1.2 * ip.beta, ip.gamma"),),
+        (S("solvers/implicit/newmark.py", "beta, gamma = ip.beta, ip.gamma", "beta, gamma = 1.2 * ip.beta, ip.gamma"),),
         ("newmark-energy",), area="solvers",
     ),
 )

@@ -60,7 +60,7 @@ WORK_KEYS = {"Final Time", "Initial Time", "Fixed dt", "Safety Factor", "Number 
              "Horizon", "Number Points X", "Number Points Y", "Number Points Z", "Number Points Radius",
              "X Length", "Y Length", "Z Length", "Output Frequency", "Maximum Solver Iterations"}
 #: largest energy balance error (% of the run's energy scale) an exit-0 run may report. The
-#: balance of velocity Verlet is its bounded energy error dt^2/8 sum m|a|^2 (solvers/common.py):
+#: balance of velocity Verlet is its bounded energy error dt^2/8 sum m|a|^2 (solvers/monitors/energy.py):
 #: a stable run at a step near its limit reaches tens of percent (WaveInBar at 1.65 times the
 #: estimate, 27 %; its measured limit is 2.63 times it), and peridyn itself stops runs past 50 %
 MAX_BALANCE_PCT = float(os.environ.get("PERIDYN_FUZZ_MAX_BALANCE", "50"))

@@ -61,7 +61,7 @@ def test_bond_based_force_converges_at_second_order_in_space():
 def test_verlet_converges_at_second_order_in_time():
     def run(dt: float) -> np.ndarray:
         sim = build_simulation(cube_deck({"Material Model": "Elastic", "Density": 1000.0, "Bulk Modulus": K, "Shear Modulus": 0.6 * K}, n=4))
-        from peridyn.solvers.verlet import Verlet, VerletSection
+        from peridyn.solvers.explicit.verlet import Verlet, VerletSection
 
         x = sim.fields["Model_Coordinates"]
         sim.fields["Velocity"][:, 0] = 1.0 * np.sin(np.pi * x[:, 1] / 4.0)  # smooth shear

@@ -26,7 +26,7 @@ import yaml
 from peridyn.cli import main
 from peridyn.core.errors import ExitCode
 from peridyn.io.exodus_reader import read_results
-from peridyn.solvers.quasistatic import LoadStepError
+from peridyn.solvers.implicit.quasistatic import LoadStepError
 from peridyn.testing import build_simulation, cube_deck, node_set_ids
 
 G = 1.0e9

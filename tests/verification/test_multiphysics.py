@@ -117,7 +117,7 @@ def test_two_point_coupling_force_and_flow():
     expected = 3.0 * (5.0 + 2.0)  # (3/m)(p_i + p_j) zeta V
     np.testing.assert_allclose(f[left], [-expected, 0.0, 0.0], rtol=1e-14)  # pushed apart
     np.testing.assert_allclose(f[right], [expected, 0.0, 0.0], rtol=1e-14)
-    from peridyn.solvers.coupled import CoupledProblem
+    from peridyn.solvers.implicit.coupled import CoupledProblem
 
     flow = CoupledProblem(sim).flow()
     q = bond_flow_coefficient(1.0, 1.5) * (2.0 - 5.0)

@@ -79,7 +79,7 @@ def test_explicit_pals_run_at_the_stable_time_step_stays_bounded_and_three_times
     import numpy as np
 
     from peridyn.core.errors import InstabilityError
-    from peridyn.solvers.verlet import Verlet, VerletSection
+    from peridyn.solvers.explicit.verlet import Verlet, VerletSection
     from peridyn.testing import cube_deck
 
     def run(factor, steps):

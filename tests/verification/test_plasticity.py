@@ -46,7 +46,7 @@ import pytest
 
 from peridyn.core.errors import InstabilityError
 from peridyn.materials.deviatoric import yield_value
-from peridyn.solvers.verlet import Verlet, VerletSection
+from peridyn.solvers.explicit.verlet import Verlet, VerletSection
 from peridyn.testing import build_simulation, cube_deck
 
 H_SPACING = 1.0e-3

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from peridyn.core.errors import InstabilityError
-from peridyn.solvers.verlet import Verlet, VerletSection
+from peridyn.solvers.explicit.verlet import Verlet, VerletSection
 from peridyn.testing import build_simulation, cube_deck
 
 ELASTIC = {"Material Model": "Elastic", "Density": 7800.0, "Bulk Modulus": 130.0e9, "Shear Modulus": 78.0e9}
@@ -223,7 +223,7 @@ def test_a_blow_up_that_shatters_a_damaged_plate_is_stopped(factor, unmeasured):
 def test_the_created_energy_test_is_what_catches_it(monkeypatch, unmeasured):
     """Without the created-energy criterion the damaged blow-up at three times the stable step
     runs to the end (the failure the criterion was made for)."""
-    from peridyn.solvers.common import EnergyMonitor
+    from peridyn.solvers.monitors.energy import EnergyMonitor
 
     monkeypatch.setattr(EnergyMonitor, "created_fraction", float("inf"))
     monkeypatch.setattr(EnergyMonitor, "unstable_ratio", float("inf"))  # the rules that need no history

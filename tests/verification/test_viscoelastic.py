@@ -35,7 +35,7 @@ import numpy as np
 import pytest
 
 from peridyn.core.errors import InstabilityError
-from peridyn.solvers.verlet import Verlet, VerletSection
+from peridyn.solvers.explicit.verlet import Verlet, VerletSection
 from peridyn.testing import build_simulation, cube_deck
 
 SPACING = 1.0e-3

@@ -10,6 +10,6 @@
 * :mod:`.amg` - the algebraic multigrid preconditioner;
 * :mod:`.guyan` - static (Guyan) condensation of a linear system onto master unknowns.
 
-The solvers (``peridyn.solvers.quasistatic``, ``nox``, ``implicit``, ...) import these; these
+The solvers (``peridyn.solvers.implicit.quasistatic``, ``nox``, ``implicit``, ...) import these; these
 import nothing of the solvers.
 """

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from ...core.errors import InstabilityError
-from ...solvers.verlet import Verlet
+from ...solvers.explicit.verlet import Verlet
 from ...testing import build_simulation
 from ...testing.tensile import lattice_family
 from ..fit import fit_rate

@@ -11,8 +11,8 @@ from typing import Any
 import numpy as np
 
 from ...core.errors import InstabilityError
-from ...solvers.stable_step import measured_stable_step
-from ...solvers.verlet import Verlet, VerletSection
+from ...solvers.monitors.stable_step import measured_stable_step
+from ...solvers.explicit.verlet import Verlet, VerletSection
 from ...testing import build_simulation, cube_deck
 from .base import Check, Measurement, Problem, simulation
 from .modal import Modes, force_stiffness
@@ -181,7 +181,7 @@ class Stability(Problem):
         "1.6 .. 2.4, LPS 1.6 .. 2.05, LPS K/G = 1000 2.2 .. 2.75, correspondence 2.1 .. 2.6. An estimate 1.7 "
         "times too large (unsafe) puts every ratio at 1.5 or below, one 0.6 times too small (wasteful) at 2.9 "
         "or above (the search stops at 3): both fail at every row. The ratio is the interval [largest stable, "
-        "smallest unstable]; the power-iteration bound (`solvers/stable_step.py`) is an upper bound of the "
+        "smallest unstable]; the power-iteration bound (`solvers/monitors/stable_step.py`) is an upper bound of the "
         "true limit."
     )
     resolution_name = "horizon/spacing"

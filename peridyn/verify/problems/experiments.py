@@ -160,7 +160,7 @@ def recorded_run(tree: dict[str, Any], safety: float, t_end: float, every: int, 
     ``t_end`` (s; a whole number of steps, the last ending at or after it), calling ``record(sim,
     t)`` every ``every`` steps (as an output would be written; the run's own set-up warnings and
     progress silenced). Returns the simulation and the step (s)."""
-    from ...solvers.verlet import Verlet
+    from ...solvers.explicit.verlet import Verlet
     from ...testing import build_simulation
     from .dynamics import _section
 

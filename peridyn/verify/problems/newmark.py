@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ...solvers.implicit import Implicit, ImplicitSection
+from ...solvers.implicit.newmark import Implicit, ImplicitSection
 from ...testing import build_simulation, cube_deck
 from .base import Check, Measurement, Problem
 from .dynamics import VerletEnergy

@@ -42,7 +42,7 @@ SCRIPT = textwrap.dedent(
     from peridyn.kernels import codegen
     from peridyn.kernels import scatter as S
     from peridyn.kernels.numba_cuda import CudaBackend
-    from peridyn.solvers import verlet_laws as L
+    from peridyn.solvers.explicit import laws as L
     from peridyn.testing.harness import build_simulation
 
     compiled = []

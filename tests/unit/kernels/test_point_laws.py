@@ -10,7 +10,7 @@ import pytest
 
 from peridyn.kernels import scatter as S
 from peridyn.kernels.numba_cpu import NumbaBackend, SerialNumbaBackend
-from peridyn.solvers import verlet_laws as L
+from peridyn.solvers.explicit import laws as L
 
 BACKENDS = [NumbaBackend, SerialNumbaBackend]
 

@@ -129,7 +129,7 @@ def test_non_finite_temperature_stops():
 def test_jacobian_is_the_derivative_of_q_v(improved):
     """The assembled d(Q V)/dT equals central differences of the engine's Q V (the flux is linear:
     they agree to round-off)."""
-    from peridyn.solvers.implicit_diffusion import DiffusionMatrix
+    from peridyn.solvers.implicit.diffusion import DiffusionMatrix
 
     sim = model(shape=(4, 3, 3), improved=improved)
     n = sim.num_owned

@@ -8,7 +8,7 @@ import pytest
 
 from peridyn.core.errors import InputError
 from peridyn.materials.multiphysics_elastic import MultiphysicsElasticParams
-from peridyn.solvers.coupled import CoupledProblem
+from peridyn.solvers.implicit.coupled import CoupledProblem
 from peridyn.solvers.linalg.coupled_tangent import CoupledTangent
 from peridyn.testing import MaterialConformance, build_simulation, cube_deck
 from peridyn.testing.harness import scattered_deck

@@ -114,7 +114,7 @@ def test_backends_agree_bit_for_bit(model, tmp_path):
         f = sim.evaluate_forces().copy()
         out = [f] + [sim.fields[k].copy() for k in FIELDS if k in sim.fields]
         if model == "diffusion":
-            from peridyn.solvers.implicit_diffusion import DiffusionMatrix
+            from peridyn.solvers.implicit.diffusion import DiffusionMatrix
 
             A = DiffusionMatrix(sim)
             A.assemble(sim)
@@ -209,7 +209,7 @@ def test_pals_tangent_helpers_repeat_the_laws():
 
 def test_diffusion_jacobian_diagonal_is_minus_the_row_sum():
     """J_ii = -sum_j J_ij, summed in bond order (the law's sum of -J_ij), bit for bit."""
-    from peridyn.solvers.implicit_diffusion import DiffusionMatrix
+    from peridyn.solvers.implicit.diffusion import DiffusionMatrix
 
     sim = simulation("diffusion", "numba", None)
     A = DiffusionMatrix(sim)

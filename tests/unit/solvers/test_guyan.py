@@ -163,9 +163,9 @@ def test_linear_problem_under_a_prescribed_displacement(h, tmp_path):
     a linear problem, right-hand side -K_fp u_p. The condensed solve (through CondensedSolver on
     the bar's tangent after its boundary conditions, the middle slice condensed) gives the
     masters and the recovered slaves of the full solve."""
-    from peridyn.solvers.model_reduction import condensed_solver
-    from peridyn.solvers.newton import ImplicitProblem
-    from peridyn.solvers.quasistatic import QuasiStaticParams
+    from peridyn.solvers.implicit.model_reduction import condensed_solver
+    from peridyn.solvers.implicit.problem import ImplicitProblem
+    from peridyn.solvers.implicit.quasistatic import QuasiStaticParams
 
     sim = h.build(bar(h, tmp_path), directory=tmp_path)
     prob = ImplicitProblem(sim)
@@ -198,7 +198,7 @@ def test_plain_guyan_would_not_do(h, tmp_path):
     """The same run, if the slaves' load were dropped (b_s = 0), does not reach the full
     solution: the check above can fail."""
     from peridyn.solvers.linalg import guyan
-    from peridyn.solvers.qs_common import LoadStepError
+    from peridyn.solvers.implicit.load_steps import LoadStepError
 
     u_full, _ = run(h, bar(h, tmp_path, steps=1), tmp_path)
     original = guyan.StaticCondensation.solve
@@ -289,7 +289,7 @@ def test_an_unsupported_part_of_the_region_is_refused(h, tmp_path):
 def test_mpi_and_multiphysics_runs_are_refused(ranks, multiphysics, words):
     from types import SimpleNamespace
 
-    from peridyn.solvers.model_reduction import refuse_unsupported
+    from peridyn.solvers.implicit.model_reduction import refuse_unsupported
 
     sim = SimpleNamespace(comm=SimpleNamespace(size=ranks), deck=SimpleNamespace(file="deck.yaml", multiphysics=multiphysics))
     with pytest.raises(InputError) as info:

@@ -316,7 +316,7 @@ def test_owned_block_of_a_tangent(h):
 
 def test_nox_aztec_ilu_preconditioner_is_ilu0_of_the_tangent(h):
     """NOXQuasiStatic's "Aztec Preconditioner: ilu" (serially: the whole BC-modified tangent)."""
-    from peridyn.solvers.nox import NOXRun
+    from peridyn.solvers.implicit.nox import NOXRun
 
     tree = h.box_deck(h.LPS, shape=(5, 3, 3))
     tree["Boundary Conditions"] = {

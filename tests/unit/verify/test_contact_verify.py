@@ -130,9 +130,10 @@ def test_contact_stability_quick_passes():
 def test_a_monitor_that_lets_unstable_runs_finish_fails(monkeypatch):
     """Without the energy monitor's checks (and the end-of-run judgement), the trials above the
     limit finish with non-finite values or a wildly wrong energy: counted as silent, a FAIL."""
-    from peridyn.solvers import common, verlet
+    from peridyn.solvers.explicit import verlet
+    from peridyn.solvers.monitors import energy
 
-    monkeypatch.setattr(common.EnergyMonitor, "check", lambda self, step, time: None)
+    monkeypatch.setattr(energy.EnergyMonitor, "check", lambda self, step, time: None)
     monkeypatch.setattr(verlet, "judge_energy", lambda *a, **k: None, raising=False)
     p = ContactStability()
     points, checks = ladder(p, "k/K = 10")

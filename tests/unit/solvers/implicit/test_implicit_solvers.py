@@ -244,7 +244,7 @@ def test_nox_counts_one_step_when_the_initial_guess_has_converged(h):
 
 
 def test_nox_failure_stops_the_run(h):
-    from peridyn.solvers.nox import NOXConvergenceError
+    from peridyn.solvers.implicit.nox import NOXConvergenceError
 
     solver = {"Initial Time": 0.0, "Final Time": 1.0, "NOXQuasiStatic": {"Number of Load Steps": 1, "Absolute Tolerance": 1e-30, "Max Solver Iterations": 2, "Direction": {"Method": "Newton"}}}
     sim = h.build(bar_deck(h, solver))

@@ -31,12 +31,12 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 from pydantic import Field, field_validator, model_validator
 
-from ..core.errors import InputError
-from ..core.params import ModelParams
-from ..deck.model import tidy
+from ...core.errors import InputError
+from ...core.params import ModelParams
+from ...deck.model import tidy
 
 if TYPE_CHECKING:
-    from .linalg.guyan import CondensedSolver
+    from ..linalg.guyan import CondensedSolver
 
 
 class ModelReductionParams(ModelParams):
@@ -136,7 +136,7 @@ def check_condensation(sim, region: np.ndarray, path: tuple[str, ...]) -> None:
 def condensed_solver(sim, tangent, params: ModelReductionParams, path: tuple[str, ...]) -> "CondensedSolver":
     """The :class:`CondensedSolver` of a QuasiStatic run: the region's free components condensed
     onto the others, the prescribed ones decoupled (row order of ``tangent``)."""
-    from .linalg.guyan import CondensedSolver
+    from ..linalg.guyan import CondensedSolver
 
     refuse_unsupported(sim, path)
     region = condensed_points(sim, params, path)

@@ -20,9 +20,9 @@ import math
 
 import numpy as np
 
-from ..core.errors import InputError
-from .linalg.linear import norm_inf, seq_dot, seq_norm2
-from .linalg.tangent import TangentMatrix
+from ...core.errors import InputError
+from ..linalg.linear import norm_inf, seq_dot, seq_norm2
+from ..linalg.tangent import TangentMatrix
 
 log = logging.getLogger("peridyn.solver")
 

@@ -8,7 +8,7 @@ Units: velocities L/T, accelerations L/T^2, force densities M L^-2 T^-2, volumes
 """
 from __future__ import annotations
 
-from ..core.traversal import PointReduction, PointUpdate
+from ...core.traversal import PointReduction, PointUpdate
 
 
 def _kick(i, args):

@@ -1,14 +1,14 @@
-"""A run that leaves its models' range is told so (solvers/model_range.py): the largest bond
+"""A run that leaves its models' range is told so (solvers/monitors/model_range.py): the largest bond
 strain of a linear law's block and the largest family rotation of a law whose strain is not
 rotation invariant, warned once per block; and a body that ends with a negative stored energy is
-never reported as a balanced run (solvers/common.py EnergyMonitor.created)."""
+never reported as a balanced run (solvers/monitors/energy.py EnergyMonitor.created)."""
 import logging
 import math
 
 import numpy as np
 import pytest
 
-from peridyn.solvers.model_range import rotation_angles
+from peridyn.solvers.monitors.model_range import rotation_angles
 from peridyn.testing import build_simulation, cube_deck
 
 STEEL = {"Density": 7800.0, "Bulk Modulus": 130.0e9, "Shear Modulus": 78.0e9}

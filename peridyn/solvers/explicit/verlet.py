@@ -14,15 +14,16 @@ import time as _time
 import numpy as np
 from pydantic import Field
 
-from ..core.errors import InputError, InstabilityError
-from ..core.interfaces import Solver
-from ..core.params import ModelParams
-from ..core.placement import Placement
-from ..kernels.scatter import apply_body_forces, apply_kinematic
-from .common import EnergyMonitor, SolverSection, count_steps, judge_energy
-from .model_range import RangeWatch
-from .progress import Progress
-from .verlet_laws import ACCELERATE, COPY_VECTORS, DRIFT, KICK
+from ...core.errors import InputError, InstabilityError
+from ...core.interfaces import Solver
+from ...core.params import ModelParams
+from ...core.placement import Placement
+from ...kernels.scatter import apply_body_forces, apply_kinematic
+from ..monitors.energy import EnergyMonitor, judge_energy
+from ..section import SolverSection, count_steps
+from ..monitors.model_range import RangeWatch
+from ..monitors.progress import Progress
+from .laws import ACCELERATE, COPY_VECTORS, DRIFT, KICK
 
 log = logging.getLogger("peridyn.solver")
 
@@ -94,7 +95,7 @@ class Verlet(Solver):
         VariableHorizonParsing at 3.4 times the estimate, still gives its answer)."""
         if not dt > self.MEASURE_ABOVE * dt_crit:
             return math.inf
-        from .stable_step import measured_stable_step
+        from ..monitors.stable_step import measured_stable_step
 
         limit, iterations = measured_stable_step(sim, dt, stop_below=dt)
         if dt < limit:
@@ -142,7 +143,7 @@ class Verlet(Solver):
         backend (made from the host state now: after set-up, or after a checkpoint was loaded)."""
         if sim.device != "gpu":
             return sim.host
-        from ..gpu.placement import DevicePlacement
+        from ...gpu.placement import DevicePlacement
 
         return DevicePlacement(sim, sim.device_backend)
 

@@ -1,4 +1,4 @@
-"""NOX's Inexact Trust Region Based solver (peridyn.solvers.trust_region), AztecOO's GMRES
+"""NOX's Inexact Trust Region Based solver (peridyn.solvers.implicit.trust_region), AztecOO's GMRES
 safeguards (peridyn.solvers.linalg.aztecoo) and the NOXQuasiStatic wiring."""
 import math
 
@@ -7,7 +7,7 @@ import pytest
 
 from peridyn.core.errors import InputError
 from peridyn.solvers.linalg.aztecoo import aztecoo_gmres, dlaic1
-from peridyn.solvers.trust_region import (
+from peridyn.solvers.implicit.trust_region import (
     ForcingTermOptions,
     TransposeProduct,
     TrustRegionOptions,
@@ -214,13 +214,13 @@ def test_transpose_product_is_the_transposed_tangent(h):
 
 
 def nox_bar(h, nox, **kw):
-    from tests.unit.solvers.test_implicit_solvers import bar_deck
+    from tests.unit.solvers.implicit.test_implicit_solvers import bar_deck
 
     return bar_deck(h, {"Initial Time": 0.0, "Final Time": 1.0, "NOXQuasiStatic": nox}, **kw)
 
 
 def test_nox_trust_region_reaches_the_quasistatic_equilibrium(h):
-    from tests.unit.solvers.test_implicit_solvers import QS, bar_deck
+    from tests.unit.solvers.implicit.test_implicit_solvers import QS, bar_deck
 
     nox = {"Number of Load Steps": 2, "Relative Tolerance": 1e-10, "Nonlinear Solver": "Inexact Trust Region Based", "Direction": {"Method": "Newton"},
            "Trust Region": {"Minimum Improvement Ratio": 1e-4, "Use Counters": True}}

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from peridyn.core.errors import InstabilityError
-from peridyn.solvers.verlet import Verlet, VerletSection
+from peridyn.solvers.explicit.verlet import Verlet, VerletSection
 from peridyn.testing import build_simulation, cube_deck
 
 GLASS = {"Material Model": "Elastic", "Density": 2440.0, "Young's Modulus": 72.0e9, "Poisson's Ratio": 0.22}

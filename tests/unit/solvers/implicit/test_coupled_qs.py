@@ -6,7 +6,7 @@ import pytest
 
 from peridyn.core.errors import InputError
 from peridyn.deck.files import dump_yaml
-from peridyn.solvers.coupled import CoupledProblem
+from peridyn.solvers.implicit.coupled import CoupledProblem
 from peridyn.solvers.linalg.coupled_tangent import CoupledTangent
 from peridyn.testing import build_simulation, cube_deck
 from peridyn.testing.harness import node_set_ids
@@ -188,7 +188,7 @@ def test_adaptive_and_direct_solvers_agree(tmp_path):
 def test_peridigms_cg_alone_fails_like_peridigm(tmp_path):
     """'Linear Solver: Belos' keeps Peridigm's CG only: here it cannot solve the coupled system
     (also after damping), and the run stops at the last converged load step."""
-    from peridyn.solvers.quasistatic import LoadStepError
+    from peridyn.solvers.implicit.quasistatic import LoadStepError
 
     with pytest.raises(LoadStepError, match="linear solve of iteration 1 failed"):
         run(bar_deck(solver={"Linear Solver": "Belos"}), tmp_path)

@@ -1,4 +1,4 @@
-"""The explicit solvers' stability rules (solvers/common.py EnergyMonitor, solvers/stable_step.py,
+"""The explicit solvers' stability rules (solvers/monitors/energy.py EnergyMonitor, solvers/monitors/stable_step.py,
 Verlet's step count): a blow-up, an empty run or a run past the stable limit never ends with
 exit 0, also when it lasts a few steps; stable runs raise no alarm."""
 import math
@@ -10,9 +10,9 @@ import pytest
 from peridyn.cli import main
 from peridyn.core.errors import ExitCode, InstabilityError
 from peridyn.deck.files import dump_yaml
-from peridyn.solvers.common import EnergyMonitor
-from peridyn.solvers.stable_step import measured_stable_step
-from peridyn.solvers.verlet import Verlet, VerletSection
+from peridyn.solvers.monitors.energy import EnergyMonitor
+from peridyn.solvers.monitors.stable_step import measured_stable_step
+from peridyn.solvers.explicit.verlet import Verlet, VerletSection
 from peridyn.testing import build_simulation, cube_deck, node_set_ids
 
 ELASTIC = {"Material Model": "Elastic", "Density": 7800.0, "Bulk Modulus": 130.0e9, "Shear Modulus": 78.0e9}

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 
-from ..core.errors import InstabilityError
+from ...core.errors import InstabilityError
 
 #: Peridigm's quasiStaticsLineSearch candidate lists
 FIRST_CANDIDATES = (0.1, 0.2, 0.3, 0.5, 0.75, 1.0)

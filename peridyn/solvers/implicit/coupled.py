@@ -2,7 +2,7 @@
 (u_x, u_y, u_z, p), for decks with ``Multiphysics: 1`` (PERIDIGM_MODELS.md §7; Peridigm's
 ``executeQuasiStatic`` with ``analysisHasMultiphysics``).
 
-Differences from the displacement-only solve (:mod:`peridyn.solvers.quasistatic`,
+Differences from the displacement-only solve (:mod:`peridyn.solvers.implicit.quasistatic`,
 PERIDIGM_SEMANTICS.md §11.2):
 
 * residual per point [(f + b) V, flow V] (``Flux_Density`` times volume), zero on the dofs of
@@ -28,11 +28,11 @@ import time as _time
 
 import numpy as np
 
-from ..kernels.gathers import gather_bond_scalar_kernel
-from ..core.errors import InputError, InstabilityError
-from .linalg.coupled_tangent import CoupledTangent
-from .linalg.linear import LinearSolver, norm_inf, seq_dot, seq_norm2
-from .newton import load_times, solver_stats
+from ...kernels.gathers import gather_bond_scalar_kernel
+from ...core.errors import InputError, InstabilityError
+from ..linalg.coupled_tangent import CoupledTangent
+from ..linalg.linear import LinearSolver, norm_inf, seq_dot, seq_norm2
+from .problem import load_times, solver_stats
 
 log = logging.getLogger("peridyn.solver")
 
@@ -152,7 +152,7 @@ class CoupledQuasiStaticRun:
     FIRST_CANDIDATES = (0.1, 0.2, 0.3, 0.5, 0.75, 1.0)
 
     def __init__(self, solver, sim) -> None:
-        from .qs_common import DAMPED_TANGENT_INTERVAL, PURE_NEWTON_STEPS
+        from .load_steps import DAMPED_TANGENT_INTERVAL, PURE_NEWTON_STEPS
 
         self.pure_newton_steps = PURE_NEWTON_STEPS
         self.damped_interval = DAMPED_TANGENT_INTERVAL
@@ -269,7 +269,7 @@ class CoupledQuasiStaticRun:
                 best_alpha, best = alpha, rho
         if (rho0 - best) / rho0 > 0.02:
             return best_alpha
-        from .qs_common import SECOND_CANDIDATES
+        from .load_steps import SECOND_CANDIDATES
 
         increases = []
         for alpha in SECOND_CANDIDATES:
@@ -354,7 +354,7 @@ class CoupledQuasiStaticRun:
 
     # -- the solver -----------------------------------------------------------------------------
     def run(self) -> None:
-        from .qs_common import (
+        from .load_steps import (
             LoadStepError,
             halve_load_step,
             multiply_output_frequency,

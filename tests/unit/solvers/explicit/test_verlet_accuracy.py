@@ -7,7 +7,7 @@ import logging
 
 import numpy as np
 
-from peridyn.solvers.verlet import Verlet, VerletSection
+from peridyn.solvers.explicit.verlet import Verlet, VerletSection
 from peridyn.testing import build_simulation, cube_deck
 
 LPS = {"Material Model": "Elastic", "Density": 1000.0, "Bulk Modulus": 1.0e9, "Shear Modulus": 0.6e9}

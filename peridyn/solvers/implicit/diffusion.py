@@ -66,11 +66,11 @@ import numpy as np
 from numba import njit, prange
 from pydantic import Field, field_validator, model_validator
 
-from ..core.errors import InputError, InstabilityError
-from ..core.interfaces import Solver
-from ..core.params import ModelParams
-from .common import SolverSection
-from .linalg.linear import (
+from ...core.errors import InputError, InstabilityError
+from ...core.interfaces import Solver
+from ...core.params import ModelParams
+from ..section import SolverSection
+from ..linalg.linear import (
     LU_ORDERING,
     SolveResult,
     cg_direction_kernel,
@@ -80,7 +80,7 @@ from .linalg.linear import (
     seq_dot,
     seq_norm2,
 )
-from .newton import check_time_steps, load_times, planned_load_steps, threads_for
+from .problem import check_time_steps, load_times, planned_load_steps, threads_for
 
 log = logging.getLogger("peridyn.solver")
 
@@ -389,7 +389,7 @@ class DiffusionLinearSolver:
                 ok = bool(comm.allreduce_min(int(ok)))
             res = SolveResult(x, ok, 1, "" if ok else "the direct solver produced non-finite values (singular matrix?)")
         else:
-            from .linalg.ilu import ILU0, ZeroPivotError
+            from ..linalg.ilu import ILU0, ZeroPivotError
 
             try:
                 ilu = ILU0(A.to_scipy(owned_only=True)) if A.n else None

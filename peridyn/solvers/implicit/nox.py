@@ -32,7 +32,7 @@ Directions (``Direction > Method``):
 
 Nonlinear solvers (``Nonlinear Solver``): ``Line Search Based`` (a direction, then a line
 search) or ``Inexact Trust Region Based`` (NOX's dogleg / inexact-Newton trust region with the
-``Trust Region`` options, :mod:`peridyn.solvers.trust_region`; needs the tangent as Jacobian:
+``Trust Region`` options, :mod:`peridyn.solvers.implicit.trust_region`; needs the tangent as Jacobian:
 the Cauchy direction uses J^T F).
 
 Line searches (``Line Search > Method``): ``Full Step``; ``Polynomial`` (NOX's: step 1, then
@@ -51,12 +51,12 @@ import time as _time
 
 import numpy as np
 
-from ..core.errors import ExitCode, PeridynError
-from ..core.interfaces import Solver
-from .linalg.aztecoo import aztecoo_gmres
-from .linalg.linear import gdot, gnorm
-from .progress import Progress
-from .newton import (
+from ...core.errors import ExitCode, PeridynError
+from ...core.interfaces import Solver
+from ..linalg.aztecoo import aztecoo_gmres
+from ..linalg.linear import gdot, gnorm
+from ..monitors.progress import Progress
+from .problem import (
     ImplicitProblem,
     load_times,
     planned_load_steps,
@@ -213,7 +213,7 @@ class NOXRun:
                 return z
 
             return apply
-        from .linalg.ilu import ILU0
+        from ..linalg.ilu import ILU0
 
         # under MPI: block-Jacobi, an incomplete LU of each rank's owned block (AztecOO's
         # domain decomposition without overlap); ILU(0) on the tangent's pattern (AZ_ilu)
@@ -418,7 +418,7 @@ class NOXRun:
         return self.line_search_based(s, tol, step_index)
 
     def trust_region(self, s: np.ndarray, tol: float, step_index: int) -> np.ndarray:
-        """NOX's InexactTrustRegionBased solver (:mod:`peridyn.solvers.trust_region`)."""
+        """NOX's InexactTrustRegionBased solver (:mod:`peridyn.solvers.implicit.trust_region`)."""
         q = self.q
         nt = q.direction.newton
         forcing = ForcingTermOptions(

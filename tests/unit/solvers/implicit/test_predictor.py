@@ -3,7 +3,7 @@ QuasiStatic or NOXQuasiStatic solver takes over from the first one."""
 import numpy as np
 import pytest
 
-from tests.unit.solvers.test_implicit_solvers import bar_deck
+from tests.unit.solvers.implicit.test_implicit_solvers import bar_deck
 
 PULL = 1.0e-7  # small: the peridynamic bar is geometrically nonlinear, the increments agree to O(strain)
 

@@ -22,8 +22,8 @@ from typing import Any
 import numpy as np
 from numba import njit, prange
 
-from ..computes.deformation_gradient import INTACT_DEFORMATION_GRADIENT
-from ..core.influence import ONE
+from ...computes.deformation_gradient import INTACT_DEFORMATION_GRADIENT
+from ...core.influence import ONE
 
 log = logging.getLogger("peridyn.solver")
 

@@ -10,7 +10,7 @@ import numpy as np
 from peridyn.cli import main
 from peridyn.core.errors import ExitCode
 from peridyn.deck.files import dump_yaml
-from peridyn.solvers.progress import Progress, structured_progress
+from peridyn.solvers.monitors.progress import Progress, structured_progress
 from peridyn.testing import cube_deck, node_set_ids
 
 

@@ -5,14 +5,14 @@ import types
 
 import pytest
 
-from peridyn.solvers.quasistatic import (
+from peridyn.solvers.implicit.quasistatic import (
     LoadStepError,
     change_output_frequency,
     halve_load_step,
     multiply_output_frequency,
     reduce_remaining_load_steps,
 )
-from tests.unit.solvers.test_implicit_solvers import bar_deck
+from tests.unit.solvers.implicit.test_implicit_solvers import bar_deck
 
 
 # -- the rules, one by one ----------------------------------------------------------------------

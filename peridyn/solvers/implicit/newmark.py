@@ -34,12 +34,12 @@ from typing import Literal
 import numpy as np
 from pydantic import Field, model_validator
 
-from ..core.interfaces import Solver
-from ..core.params import ModelParams
-from .common import SolverSection, count_steps
-from .linalg.linear import METHODS, LinearSolver
-from .newton import ImplicitProblem, threads_for, solver_stats
-from .progress import Progress
+from ...core.interfaces import Solver
+from ...core.params import ModelParams
+from ..section import SolverSection, count_steps
+from ..linalg.linear import METHODS, LinearSolver
+from .problem import ImplicitProblem, threads_for, solver_stats
+from ..monitors.progress import Progress
 
 log = logging.getLogger("peridyn.solver")
 

@@ -9,8 +9,8 @@ from typing import Any, Literal
 
 from pydantic import ConfigDict, Field, model_validator
 
-from ..core.params import ModelParams
-from .common import SolverSection
+from ...core.params import ModelParams
+from ..section import SolverSection
 from .quasistatic import LoadStepKeys
 from .trust_region import TrustRegionOptions
 

@@ -6,8 +6,8 @@ import signal
 import numpy as np
 import pytest
 
-from peridyn.solvers.qs_common import MAX_LOAD_STEPS, LoadStepError, reduce_remaining_load_steps
-from peridyn.solvers.trust_region import MAX_INNER_ITERATIONS, ForcingTermOptions, TrustRegionOptions, TrustRegionSolver
+from peridyn.solvers.implicit.load_steps import MAX_LOAD_STEPS, LoadStepError, reduce_remaining_load_steps
+from peridyn.solvers.implicit.trust_region import MAX_INNER_ITERATIONS, ForcingTermOptions, TrustRegionOptions, TrustRegionSolver
 
 
 A = np.array([[1.0, 0.3, -0.1], [0.2, 1.0, 0.1], [-0.1, 0.25, 1.0]])  # J: the Cauchy step is no solution

@@ -42,14 +42,14 @@ from typing import Literal
 import numpy as np
 from pydantic import Field, field_validator, model_validator
 
-from ..core.errors import InputError, InstabilityError
-from ..core.interfaces import Solver
-from ..core.params import ModelParams
-from .common import SolverSection
-from .linalg.linear import METHODS, LinearSolver
+from ...core.errors import InputError, InstabilityError
+from ...core.interfaces import Solver
+from ...core.params import ModelParams
+from ..section import SolverSection
+from ..linalg.linear import METHODS, LinearSolver
 from .model_reduction import ModelReductionParams
-from .progress import Progress
-from .newton import (
+from ..monitors.progress import Progress
+from .problem import (
     ImplicitProblem,
     check_time_steps,
     load_times,
@@ -57,7 +57,7 @@ from .newton import (
     solver_stats,
     threads_for,
 )
-from .qs_common import (
+from .load_steps import (
     DAMPED_TANGENT_INTERVAL,
     FIRST_CANDIDATES,
     PURE_NEWTON_STEPS,
@@ -187,7 +187,7 @@ class QuasiStatic(Solver):
                 CoupledQuasiStaticRun(self, sim).run()
             else:
                 if self.params.solve_for_pressure or not self.params.solve_for_displacement:
-                    from ..core.errors import InputError
+                    from ...core.errors import InputError
 
                     raise InputError(
                         "QuasiStatic solves for the displacement; the fluid pressure is an unknown only in a Multiphysics deck",
@@ -199,7 +199,7 @@ class QuasiStatic(Solver):
 def fallback_verlet(solver: QuasiStatic, sim, t_start: float, t_final: float):
     """The ``Switch to Verlet`` continuation of ``solver`` over [t_start, t_final], after the
     estimate-and-limit rules of any Verlet section (InputError: no step would fit, or too many)."""
-    from .verlet import Verlet, VerletSection
+    from ..explicit.verlet import Verlet, VerletSection
 
     sw = solver.params.quasi_static.adaptive.switch_to_verlet
     verlet = {"Fixed dt": sw.fixed_dt} if sw.fixed_dt is not None else {"Safety Factor": sw.safety_factor if sw.safety_factor is not None else 1.0}

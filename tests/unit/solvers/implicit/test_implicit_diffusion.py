@@ -8,7 +8,7 @@ import pytest
 from peridyn.cli import main
 from peridyn.core.errors import ExitCode, InputError
 from peridyn.deck.files import dump_yaml
-from peridyn.solvers.implicit_diffusion import DiffusionStepError
+from peridyn.solvers.implicit.diffusion import DiffusionStepError
 from peridyn.testing import build_simulation, cube_deck
 from peridyn.testing.harness import node_set_ids
 from peridyn.testing.mpi import mpirun, requires_mpi
@@ -116,7 +116,7 @@ def test_linear_solvers_reach_the_same_steady_state(tmp_path, options):
     n = sim.num_owned
     x = sim.fields["Model_Coordinates"][:n, 0]
     T = sim.fields["Temperature"][:n]
-    from peridyn.solvers.implicit_diffusion import DiffusionMatrix
+    from peridyn.solvers.implicit.diffusion import DiffusionMatrix
 
     A = DiffusionMatrix(sim)
     A.assemble(sim)
