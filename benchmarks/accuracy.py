@@ -23,6 +23,7 @@ from scipy.special import sici
 
 from peridyn.solvers.explicit.verlet import Verlet, VerletSection
 from peridyn.testing import build_simulation, cube_deck
+from peridyn.engine.session import run_sections
 
 K = 1.0e9
 
@@ -133,7 +134,7 @@ def newmark() -> None:
         }
         sim = build_simulation(tree)
         t0 = time.perf_counter()
-        sim.run_solvers()
+        run_sections(sim)
         return sim.fields["Displacement"].copy(), time.perf_counter() - t0
 
     for beta, gamma in ((0.25, 0.5), (0.3025, 0.6)):

@@ -35,6 +35,7 @@ import numpy as np
 from peridyn.io.exodus_reader import read_results
 from peridyn.solvers.implicit.load_steps import LoadStepError
 from peridyn.testing.harness import build_simulation, node_set_ids
+from peridyn.engine.session import run_sections
 
 DX = 1.0e-3
 W_DX, A0_DX = 40, 8
@@ -96,7 +97,7 @@ def main() -> None:
         sim = build_simulation(plate_deck(), output_dir=tmp)
         n_points = sim.num_global
         try:
-            sim.run_solvers()
+            run_sections(sim)
         except (LoadStepError, RuntimeError) as exc:  # the plate breaks in two (a singular tangent): the converged steps are kept
             print(f"stopped at t = {sim.time:g}: {exc}")
         sim.outputs.close(complete=True)

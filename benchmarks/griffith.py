@@ -34,6 +34,7 @@ import numpy as np
 
 from peridyn.damage.critical_energy import bond_based_critical_stretch
 from peridyn.testing.harness import build_simulation
+from peridyn.engine.session import run_sections
 
 HERE = Path(__file__).resolve().parent
 _spec = importlib.util.spec_from_file_location("griffith_plate", HERE.parent / "tests" / "verification" / "test_griffith.py")
@@ -54,7 +55,7 @@ def case(m: int, a_per_delta: int) -> dict:
     }
     t0 = time.perf_counter()
     sim = build_simulation(tree)
-    sim.run_solvers()
+    run_sections(sim)
     seconds = time.perf_counter() - t0
     sigma = plate.mean_stress(sim, g)
     _, _, s = plate.bond_stretches(sim, g)
@@ -75,7 +76,7 @@ def k_field_case(m: int) -> dict:
     tree = kfield.k_field_deck(n=n, m=float(m))
     t0 = time.perf_counter()
     sim = build_simulation(tree)
-    sim.run_solvers()
+    run_sections(sim)
     seconds = time.perf_counter() - t0
     g = {"H": n * plate.DX - 2 * math.ceil(m) * plate.DX}  # bonds between points off the prescribed layer
     x = sim.fields["Model_Coordinates"]
@@ -130,7 +131,7 @@ def growth(m: int) -> None:
     from peridyn.solvers.implicit.quasistatic import LoadStepError
 
     try:
-        sim.run_solvers()
+        run_sections(sim)
     except LoadStepError as exc:  # the load step in which the crack runs finds no equilibrium
         print(f"  stopped: {type(exc).__name__}: {str(exc)[:160]}")
 

@@ -34,6 +34,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from peridyn.engine.session import run_sections
 
 K, MU = 160.0e9, 80.0e9
 MATERIAL = {"Material Model": "Elastic", "Density": 7800.0, "Bulk Modulus": K, "Shear Modulus": MU}
@@ -58,7 +59,7 @@ def child(config: str, ratio: float, directory: str) -> dict:
 
     bar = tensile_bar(MATERIAL, directory, ratio=ratio, horizon=1.0e-3, section=2.0, solver=solver_section(config))
     sim = build_simulation(bar.tree, directory=directory)
-    sim.run_solvers()
+    run_sections(sim)
     st = sim.stats["solvers"][-1]
     np.save(Path(directory) / "u.npy", sim.fields["Displacement"][: sim.num_owned])
     return {

@@ -11,7 +11,6 @@ from pathlib import Path
 
 from .core.errors import ExitCode, InputError, InstabilityError, OutputWriteError, PeridynError
 from .core.logs import say, setup_logging
-from .engine.summary import log_setup, log_summary
 
 log = logging.getLogger("peridyn")
 #: set from --log-json before the command runs
@@ -33,150 +32,50 @@ def _report_input_error(exc: InputError) -> None:
 
 # ------------------------------------------------------------------------------------------------
 def cmd_run(args) -> int:
-    from .deck.model import load_deck
-    from .engine.simulation import Simulation
+    from .engine.session import ReportedInputError, RunSession
     from .parallel.comm import get_comm
 
     comm = get_comm()
     _setup_logging(args.verbose - args.quiet, comm.rank)
-    wall0 = time.perf_counter()
-    output_dir = Path(args.output_dir) if args.output_dir else Path.cwd()
-    if comm.size > 1:
-        return _run_parallel(args, comm, output_dir, wall0)
-    from .engine.output_paths import check_output_names, check_run_paths, lock_outputs, release_locks
-
-    _prepare_output_dir(output_dir)
-    deck = load_deck(args.deck)
-    check_output_names(deck, output_dir)
-    locks = lock_outputs(deck, output_dir)  # a second run of the deck in this folder is refused here
+    session = RunSession(args.deck, output_dir=args.output_dir or None, comm=comm, progress=not args.no_progress,
+                         backend=args.backend, device=args.device, restart=args.restart)
+    if comm.size == 1:
+        session.run()  # errors reach main(): one line and their exit code
+        return ExitCode.OK
     try:
-        sim = Simulation(deck, comm=comm, output_dir=output_dir, progress=not args.no_progress, backend=args.backend, device=args.device)
-        check_run_paths(sim)
-        log_setup(sim)
-        restart = None
-        try:
-            restart = _attach_restart(sim, args)
-            sim.run_solvers()
-        except InstabilityError:
-            sim.outputs.close(complete=True)
-            raise
-        except BaseException:
-            sim.outputs.close(complete=False)
-            raise
-        finally:
-            if restart is not None:
-                restart.remove_signals()
-        sim.outputs.close(complete=True)
-    finally:
-        release_locks(locks)
-    log_summary(sim, time.perf_counter() - wall0)
-    return ExitCode.OK
-
-
-def _attach_restart(sim, args):
-    """Checkpoints of a deck with a Restart section, and the checkpoint of ``--restart`` put into
-    the model (docs/restart.md); SIGTERM/SIGINT then stop the run at a checkpoint."""
-    if getattr(sim.deck, "restart", None) is None and getattr(args, "restart", None) is None:
-        return None
-    from .engine.restart import attach
-
-    restart = sim.restart = attach(sim, args.restart)
-    restart.install_signals()
-    return restart
-
-
-def _prepare_output_dir(folder: Path) -> None:
-    from .engine.output_paths import prepare_output_dir
-
-    prepare_output_dir(folder, "--output-dir")
-
-
-def _agree_on_input(comm, action):
-    """Run ``action`` on every rank; if it raised InputError on any rank, rank 0 reports one
-    message and every rank returns the same error (no rank is left waiting in a collective)."""
-    result, message = None, None
-    try:
-        result = action()
-    except InputError as exc:
-        message = exc.one_line()
-    messages = [m for m in comm.allgather(message) if m is not None]
-    if messages:
-        if comm.rank == 0:
-            for line in messages[0].splitlines():
-                say("error", line)
-        raise _ReportedInputError()
-    return result
-
-
-class _ReportedInputError(Exception):
-    """An input error already reported by rank 0."""
-
-
-def _run_parallel(args, comm, output_dir: Path, wall0: float) -> int:
-    from .engine.output_paths import release_locks
-
-    locks: list = []  # rank 0's output locks (the only rank that writes)
-    try:
-        return _run_parallel_locked(args, comm, output_dir, wall0, locks)
-    finally:
-        release_locks(locks)
-
-
-def _run_parallel_locked(args, comm, output_dir: Path, wall0: float, locks: list) -> int:
-    from .deck.model import load_deck
-    from .engine.output_paths import check_output_names, check_run_paths, lock_outputs
-    from .engine.simulation import Simulation
-
-    try:
-        _agree_on_input(comm, lambda: _prepare_output_dir(output_dir))
-        deck = _agree_on_input(comm, lambda: load_deck(args.deck))
-        _agree_on_input(comm, lambda: check_output_names(deck, output_dir))
-        locks.extend(_agree_on_input(comm, lambda: lock_outputs(deck, output_dir) if comm.rank == 0 else []))
-        sim = _agree_on_input(comm, lambda: Simulation(deck, comm=comm, output_dir=output_dir, progress=not args.no_progress and comm.rank == 0, backend=args.backend, device=args.device))
-        _agree_on_input(comm, lambda: check_run_paths(sim) if comm.rank == 0 else None)
-    except _ReportedInputError:
+        session.open()
+    except ReportedInputError:
         return ExitCode.INPUT_ERROR
     except Exception as exc:  # a failure on one rank must not leave the others waiting
         _abort(comm, exc, args)
         return ExitCode.FAILURE
-    log_setup(sim)
-    from .engine.restart import RunInterrupted
+    return _run_parallel(session, comm, args)
 
-    restart = None
+
+def _run_parallel(session, comm, args) -> int:
+    """The sections of an MPI run: an error on every rank at the same step ends each rank with
+    its exit code; one found on one rank alone ends every rank (MPI_Abort), never a hang."""
+    from .engine.restart import RunInterrupted
+    from .engine.session import keeps_output
+
     try:
-        restart = _agree_on_input(comm, lambda: _attach_restart(sim, args))
-    except _ReportedInputError:
-        sim.outputs.close(complete=False)
-        return ExitCode.INPUT_ERROR
-    try:
-        sim.run_solvers()
+        session.run()
     except RunInterrupted as exc:
-        sim.outputs.close(complete=False)
         if not exc.collective:  # a signal outside an explicit loop: the other ranks may wait in a collective
             _abort(comm, exc, args)
-            return exc.exit_code
-        if comm.rank == 0:  # every rank stops after the same step, after the checkpoint
+        elif comm.rank == 0:  # every rank stops after the same step, after the checkpoint
             print(f"{exc}", file=sys.stderr)
         return exc.exit_code
     except InstabilityError as exc:
-        if not exc.collective:  # found on this rank alone: the others must be stopped
-            sim.outputs.close(complete=False)
+        if not keeps_output(exc, comm.size):  # found on this rank alone: the others must be stopped
             _abort(comm, exc, args)
-            return ExitCode.UNSTABLE
-        sim.outputs.close(complete=True)  # every rank raises it at the same step
-        if comm.rank == 0:
+        elif comm.rank == 0:
             say("error", str(exc))
             say("", "the output written so far is kept and readable")
         return ExitCode.UNSTABLE
     except BaseException as exc:
-        sim.outputs.close(complete=False)
         _abort(comm, exc, args)
         return ExitCode.FAILURE
-    finally:
-        if restart is not None:
-            restart.remove_signals()
-    sim.outputs.close(complete=True)
-    log_summary(sim, time.perf_counter() - wall0)
     return ExitCode.OK
 
 

@@ -17,7 +17,7 @@ from typing import Any, Union
 
 import numpy as np
 
-from ..core.errors import InputError, InstabilityError, PeridynError
+from ..core.errors import InputError, PeridynError
 from ..core.fields import Temporal
 from ..deck.model import tidy
 from ..solvers.explicit.verlet import Verlet
@@ -67,7 +67,9 @@ class Model:
     validated ``Deck``. ``output_dir``: where the deck's output files go (created with its
     parents when missing; default: the current folder). ``directory``: the folder relative file
     names of a dict deck are read from (default: the current folder). ``write_files=False``:
-    outputs write nothing. ``backend``, ``device``: as ``peridyn run --backend/--device``.
+    outputs write nothing. ``backend``, ``device``, ``restart`` (a checkpoint path or "latest"): as
+    ``peridyn run --backend/--device/--restart``; a deck with a ``Restart`` section writes its
+    checkpoints (docs/restart.md).
 
     The run follows the deck's solver sections in order, exactly as ``peridyn run`` does (the
     same operations, bit for bit). ``run()`` runs to the end, ``run(until=t)`` and ``step(n)``
@@ -76,35 +78,25 @@ class Model:
     """
 
     def __init__(self, deck: DeckLike, *, output_dir: str | os.PathLike | None = None, directory: str | os.PathLike | None = None,
-                 write_files: bool = True, progress: bool = False, backend: str | None = None, device: str | None = None) -> None:
-        from ..engine.output import check_output_names, lock_outputs, prepare_output_dir, release_locks
-        from ..engine.simulation import Simulation
+                 write_files: bool = True, progress: bool = False, backend: str | None = None, device: str | None = None,
+                 restart: str | os.PathLike | None = None) -> None:
+        from ..engine.session import RunSession
 
         for arg, value in (("backend", backend), ("device", device)):
             if value is not None and not isinstance(value, str):
                 raise ArgumentTypeError(f"{arg} must be a name (str) or None, not {type(value).__name__} {value!r}", path=("Model", arg),
                                         fix=f"give {arg} as text, e.g. " + ("'numba'" if arg == "backend" else "'cpu' or 'gpu'"))
-        for arg, value in (("output_dir", output_dir), ("directory", directory)):
+        for arg, value in (("output_dir", output_dir), ("directory", directory), ("restart", restart)):
             if value is not None and not isinstance(value, (str, os.PathLike)):
                 raise ArgumentTypeError(f"{arg} must be a folder name (str or os.PathLike), not {type(value).__name__} {value!r}",
                                         path=("Model", arg), fix=f"give {arg} as a path")
         self.deck = build_deck(deck, directory)
         self.output_dir = Path(output_dir) if output_dir is not None else Path.cwd()
-        self._locks: list = []
-        if write_files:
-            prepare_output_dir(self.output_dir)
-            check_output_names(self.deck, self.output_dir)
-            self._locks = lock_outputs(self.deck, self.output_dir)
-        try:
-            #: the engine's Simulation (internal point order; see the module docstring)
-            self.sim = Simulation(self.deck, output_dir=self.output_dir, progress=progress, write_files=write_files,
-                                  backend=backend, device=device)
-        except BaseException:
-            release_locks(self._locks)
-            raise
-        sim = self.sim
-        if not write_files:  # the engine's write_files only keeps set-up from writing; a run writes nothing either
-            sim.outputs.writers = []
+        #: the run services (output folder and locks, checkpoints, signals, closing): those of ``peridyn run``
+        self.session = RunSession(self.deck, output_dir=self.output_dir, progress=progress, write_files=write_files,
+                                  backend=backend, device=device, restart=None if restart is None else os.fspath(restart), option="the output folder")
+        #: the engine's Simulation (internal point order; see the module docstring)
+        self.sim = sim = self.session.open()
         self._owned = sim.mothership_of_local[: sim.num_owned]
         self._plan: list | None = None
         self._section = 0  # index of the solver section that runs next (or now)
@@ -375,9 +367,13 @@ class Model:
         while True:
             if self._generator is None:
                 if self._section >= len(plan):
-                    self._finish()
+                    self._finish(summary=True)
                     return False
                 solver = plan[self._section][0]
+                restart = self.sim.restart
+                if restart is not None and not restart.begin_section(self._section, solver):
+                    self._section += 1  # done before the checkpoint this run continues from
+                    continue
                 if isinstance(solver, Verlet):
                     self._started = True
                     # a GPU run's fields come back at every step, so that what a step(n) caller reads is current
@@ -392,7 +388,7 @@ class Model:
                                    "an explicit Verlet section)")
                 self._started = True
                 self._guard(lambda: solver.run(self.sim))
-                self._section += 1
+                self._end_section(solver)
                 self.steps_taken += 1
                 self._record(0, force=True)
                 return True
@@ -400,7 +396,7 @@ class Model:
                 step = self._guard(lambda: next(self._generator))
             except StopIteration:
                 self._generator = None
-                self._section += 1
+                self._end_section(plan[self._section][0])
                 continue
             self.steps_taken += 1
             self._record(step)
@@ -408,37 +404,37 @@ class Model:
                 generator = self._generator
                 self._guard(lambda: [None for _ in generator])
                 self._generator = None
-                self._section += 1
+                self._end_section(plan[self._section][0])
                 if self._section >= len(plan):
-                    self._finish()
+                    self._finish(summary=True)
             return True
+
+    def _end_section(self, solver) -> None:
+        """The section now running has ended: its checkpoint (with a Restart section), the next."""
+        restart = self.sim.restart
+        if restart is not None:
+            self._guard(lambda: restart.end_section(self._section, solver))
+        self._section += 1
 
     def _guard(self, action: Callable[[], Any]) -> Any:
         """Run ``action``; on an error close the outputs as ``peridyn run`` does (an unstable run
         keeps its frames under the final name) and end the run."""
+        from ..engine.session import keeps_output
+
         try:
             return action()
         except StopIteration:
             raise
-        except InstabilityError:
-            self._finish()
-            raise
-        except BaseException:
-            self._finish(complete=False)
+        except BaseException as exc:
+            self._finish(complete=keeps_output(exc, self.sim.comm.size))
             raise
 
-    def _finish(self, complete: bool = True) -> None:
-        from ..engine.output import release_locks
-
+    def _finish(self, complete: bool = True, summary: bool = False) -> None:
         if self._ended:
             return
         self._ended = True
         self._generator = None
-        try:
-            self.sim.outputs.close(complete=complete)
-        finally:
-            release_locks(self._locks)
-            self._locks = []
+        self.session.close(complete=complete, summary=summary)
 
     def step(self, n: int = 1) -> "Model":
         """Take ``n`` time steps of the explicit section running now (its first call also does
@@ -479,7 +475,9 @@ class Model:
         return self
 
     def __exit__(self, kind, exc, tb) -> None:
-        self._finish(complete=kind is None or issubclass(kind, InstabilityError))
+        from ..engine.session import keeps_output
+
+        self._finish(complete=keeps_output(exc, self.sim.comm.size))
 
     # -- results -------------------------------------------------------------------------------
     @property

@@ -453,9 +453,6 @@ class Simulation(Protocol):
     def plan_solvers(self) -> list[tuple[Any, int | None, float | None]]:
         """The deck's solvers in order: (solver, planned steps, estimated seconds)."""
 
-    def run_solvers(self) -> None:
-        """Run the deck's solver sections in deck order."""
-
     def set_time_step(self, dt: float) -> None:
         """The step the running solver takes (T); rate-form models read it from their views."""
 

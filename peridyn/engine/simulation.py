@@ -525,17 +525,6 @@ class Simulation:
         return limits.check_steps(steps, float(self.num_global), float(self.num_bonds_global), file=self.deck.file, path=path, section=section,
                                   tangent_entries=entries, finite_differences=differences)
 
-    def run_solvers(self) -> None:
-        """Run the deck's solver sections in deck order (what ``peridyn run`` does between set-up
-        and the summary; the caller closes ``outputs``)."""
-        restart = self.restart
-        for k, (solver, _, _) in enumerate(self.plan_solvers()):
-            if restart is not None and not restart.begin_section(k, solver):
-                continue  # done before the checkpoint this run continues from
-            solver.run(self)
-            if restart is not None:
-                restart.end_section(k, solver)
-
     def evaluate_forces(self) -> np.ndarray:
         """Peridigm's evalModel: damage, precompute, force. Returns Force_Density (n, 3)."""
         if self.overlap:

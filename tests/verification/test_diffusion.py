@@ -22,6 +22,7 @@ import pytest
 
 from peridyn.testing import build_simulation, cube_deck
 from peridyn.testing.harness import node_set_ids
+from peridyn.engine.session import run_sections
 
 M = 3.015  # horizon / spacing
 
@@ -40,7 +41,7 @@ def solve(shape, spacing, fixed, value, *, improved=False, solver="Direct"):
         "ImplicitDiffusion": {"Number of Load Steps": 1, "Relative Tolerance": 1e-12, "Linear Solver": solver},
     }
     sim = build_simulation(tree)
-    sim.run_solvers()
+    run_sections(sim)
     n = sim.num_owned
     return sim.fields["Model_Coordinates"][:n].copy(), sim.fields["Temperature"][:n].copy()
 

@@ -37,6 +37,7 @@ import pytest
 
 from peridyn.io.exodus_reader import read_results
 from peridyn.testing.harness import build_simulation, node_set_ids
+from peridyn.engine.session import run_sections
 
 DX = 1.0e-3
 R, FREQ, A1, M1 = 0.1, 20.0, 2.0e9, 4.0
@@ -66,7 +67,7 @@ def bar_deck(eps: float, dN: float, steps: int, fatigue_limit: float = 0.0) -> d
 
 def run(tree: dict, folder) -> dict:
     sim = build_simulation(tree, output_dir=folder)
-    sim.run_solvers()
+    run_sections(sim)
     sim.outputs.close(complete=True)
     return read_results(folder / f"{tree['Output']['Output Filename']}.e")
 

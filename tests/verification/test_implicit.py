@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from peridyn.testing import build_simulation, cube_deck, node_set_ids
+from peridyn.engine.session import run_sections
 
 K, MU = 160.0e9, 80.0e9
 E = 9.0 * K * MU / (3.0 * K + MU)
@@ -35,7 +36,7 @@ def test_quasistatic_bar_in_the_bulk_is_the_linear_elastic_solution():
         tree["Boundary Conditions"][f"U{c}"] = {"Type": "Prescribed Displacement", "Node Set": "Layer Node Set", "Coordinate": c, "Value": f"{f * eps!r}*{c}*t"}
     tree["Solver"] = {"Initial Time": 0.0, "Final Time": 1.0, "QuasiStatic": {"Number of Load Steps": 2, "Relative Tolerance": 1.0e-10}}
     sim = build_simulation(tree)
-    sim.run_solvers()
+    run_sections(sim)
     assert sim.stats["solvers"][-1]["converged"]
     x = sim.fields["Model_Coordinates"]
     u = sim.fields["Displacement"]
@@ -79,7 +80,7 @@ def test_newton_converges_quadratically():
         "QuasiStatic": {"Number of Load Steps": 1, "Relative Tolerance": 1.0e-13, "Maximum Solver Iterations": 12, "Linear Solver": "Direct"},
     }
     sim = build_simulation(tree)
-    sim.run_solvers()
+    run_sections(sim)
     r = np.array(sim.stats["solvers"][-1]["residuals"][0])
     floor = 1.0e-14 * r[0]  # round-off of the force evaluation (the last residual sits there)
     # the order of iteration k: log(r_k+1/r_k) / log(r_k/r_k-1); the first step starts far from
@@ -117,7 +118,7 @@ def newmark_energy(beta, gamma, steps=20, dt=2.0e-4):
         energy.append(sim.kinetic_energy() + (sim.stored_energy() if t > 0 else 0.0))
 
     sim.write_output = record
-    sim.run_solvers()
+    run_sections(sim)
     return np.array(energy)
 
 
@@ -134,7 +135,7 @@ def test_newmark_trapezoidal_rule_conserves_energy():
 def newmark_displacement(beta, gamma, steps, final_time=1.0e-3):
     """Displacement of the vibration at ``final_time``."""
     sim = vibration(beta, gamma, steps, final_time)
-    sim.run_solvers()
+    run_sections(sim)
     np.testing.assert_allclose(sim.time, final_time, rtol=1e-12)
     return sim.fields["Displacement"].copy()
 

@@ -28,6 +28,7 @@ from peridyn.core.errors import ExitCode
 from peridyn.io.exodus_reader import read_results
 from peridyn.solvers.implicit.quasistatic import LoadStepError
 from peridyn.testing import build_simulation, cube_deck, node_set_ids
+from peridyn.engine.session import run_sections
 
 G = 1.0e9
 K = 1000.0 * G  # K/G = 1000
@@ -66,7 +67,7 @@ def test_nearly_incompressible_bar_in_the_bulk_converges_to_the_affine_solution(
         "QuasiStatic": {"Number of Load Steps": 2, "Relative Tolerance": 1.0e-10, "Maximum Solver Iterations": max_iterations},
     }
     sim = build_simulation(tree)
-    sim.run_solvers()
+    run_sections(sim)
     st = sim.stats["solvers"][-1]
     assert st["converged"] and st["steps"] == 2 and st["load_step_reductions"] == 0
     check_every_accepted_step_converged(st, max_iterations)
@@ -126,7 +127,7 @@ def test_newton_converges_quadratically_at_k_over_g_1000():
         "QuasiStatic": {"Number of Load Steps": 1, "Relative Tolerance": 1.0e-12, "Maximum Solver Iterations": max_iterations, "Linear Solver": "Direct"},
     }
     sim = build_simulation(stretch_and_shear_deck(solver))
-    sim.run_solvers()
+    run_sections(sim)
     st = sim.stats["solvers"][-1]
     assert st["converged"]
     check_every_accepted_step_converged(st, max_iterations)
@@ -178,7 +179,7 @@ def test_two_blocks_with_a_100x_stiffness_jump_strain_inversely_to_their_moduli(
         },
     }
     sim = build_simulation(tree, directory=tmp_path)
-    sim.run_solvers()
+    run_sections(sim)
     st = sim.stats["solvers"][-1]
     assert st["converged"]
     check_every_accepted_step_converged(st, max_iterations)
@@ -265,7 +266,7 @@ def test_unconverged_load_step_stops_the_run_with_one_line_naming_it(tmp_path, c
     # the solver statistics say which attempt failed
     sim = build_simulation(stretch_and_shear_deck(solver))
     with pytest.raises(LoadStepError, match=r"load step 3 \(t = 1, step size 0\.5\) did not converge: residual"):
-        sim.run_solvers()
+        run_sections(sim)
     st = sim.stats["solvers"][-1]
     assert not st["converged"] and st["steps"] == 2
     assert [a["outcome"] for a in st["load_steps"]] == ["converged", "converged", "failed"]
@@ -280,7 +281,7 @@ def test_adaptive_load_stepping_halves_the_step_until_it_converges(caplog):
     solver = {"Initial Time": 0.0, "Final Time": 1.0, "Disable Heuristics": True, "QuasiStatic": qs}
     sim = build_simulation(stretch_and_shear_deck(solver))
     with caplog.at_level("WARNING", logger="peridyn.solver"):
-        sim.run_solvers()
+        run_sections(sim)
     st = sim.stats["solvers"][-1]
     assert st["converged"]
     attempts = st["load_steps"]
@@ -309,7 +310,7 @@ def test_adaptive_load_stepping_halves_the_step_until_it_converges(caplog):
     # the same equilibrium as four fixed load steps (elastic: path-independent); both meet 1e-10
     # of the reactions, the K/G = 1000 shear modes amplify that to < 1e-7 of the displacements
     ref = build_simulation(stretch_and_shear_deck({"Initial Time": 0.0, "Final Time": 1.0, "Disable Heuristics": True, "QuasiStatic": dict(PURE_NEWTON, **{"Number of Load Steps": 4})}))
-    ref.run_solvers()
+    run_sections(ref)
     assert ref.stats["solvers"][-1]["converged"]
     u, u_ref = sim.fields["Displacement"], ref.fields["Displacement"]
     np.testing.assert_allclose(u, u_ref, rtol=0, atol=1.0e-7 * np.abs(u_ref).max())
@@ -323,7 +324,7 @@ def test_stiff_step_the_default_cg_cannot_solve_fails_clearly_then_is_cut_back()
     qs = {"Number of Load Steps": 1, "Relative Tolerance": 1.0e-10}
     sim = build_simulation(stretch_and_shear_deck({"Initial Time": 0.0, "Final Time": 1.0, "QuasiStatic": qs}))
     with pytest.raises(LoadStepError) as info:
-        sim.run_solvers()
+        run_sections(sim)
     msg = str(info.value)
     assert "\n" not in msg
     assert "load step 1 (t = 1, step size 1) did not converge: residual" in msg and "the linear solve of iteration" in msg, msg
@@ -333,7 +334,7 @@ def test_stiff_step_the_default_cg_cannot_solve_fails_clearly_then_is_cut_back()
 
     adaptive = {"Maximum load step reductions in one step": 2, "Maximum total load step reductions": 2}
     sim = build_simulation(stretch_and_shear_deck({"Initial Time": 0.0, "Final Time": 1.0, "QuasiStatic": dict(qs, **{"Adaptive Load-Stepping": adaptive})}))
-    sim.run_solvers()
+    run_sections(sim)
     st = sim.stats["solvers"][-1]
     assert st["converged"] and st["load_step_reductions"] >= 1
     check_every_accepted_step_converged(st, 10)

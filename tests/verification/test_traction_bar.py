@@ -21,6 +21,7 @@ import numpy as np
 
 from peridyn.testing import build_simulation
 from peridyn.testing.tensile import lattice_youngs_modulus, tensile_bar
+from peridyn.engine.session import run_sections
 
 K, MU = 160.0e9, 80.0e9
 E = 9.0 * K * MU / (3.0 * K + MU)
@@ -53,7 +54,7 @@ def pull(tmp_path, section):
                                             "End": {"Half Space": {"Point": [0.0, top - 1.5 * h, 0.0], "Normal": [0.0, 1.0, 0.0]}}}}
     bcs["Pull"] = {"Type": "Surface Traction", "Node Set": "End Node Set", "Traction": [0.0, SIGMA, 0.0], "Scale": "t"}
     sim = build_simulation(bar.tree, directory=folder)
-    sim.run_solvers()
+    run_sections(sim)
     assert all(s.get("converged", True) for s in sim.stats["solvers"])
     (traction,) = sim.force_conditions
     np.testing.assert_allclose(traction.total, [0.0, SIGMA * bar.section_area, 0.0], rtol=1e-13, atol=1e-9)

@@ -22,6 +22,7 @@ import numpy as np
 from ...testing.tensile import lattice_family
 from .base import Check, Measurement, Problem
 from .lattice import interior_checks, interior_values, lattice_stiffness
+from ...engine.session import run_sections
 
 #: Newton on the assembled (finite-difference) tangent: correspondence
 NEWTON: dict[str, Any] = {"Initial Time": 0.0, "Final Time": 1.0,
@@ -75,7 +76,7 @@ def solve(tree: dict[str, Any], directory: Path) -> tuple[Any, dict[str, Any]]:
     from ...testing import build_simulation
 
     sim = build_simulation(tree, directory=directory)
-    sim.run_solvers()
+    run_sections(sim)
     sim.outputs.close()
     st = sim.stats["solvers"][-1]
     if not st.get("converged", True):

@@ -20,6 +20,7 @@ import numpy as np
 from ...testing import build_simulation, cube_deck
 from ...testing.harness import node_set_ids
 from .base import Check, Measurement, Problem
+from ...engine.session import run_sections
 
 #: horizon / spacing of every lattice here (Peridigm's convention)
 M = 3.015
@@ -209,7 +210,7 @@ class Diffusion(Problem):
                           "ImplicitDiffusion": {"Number of Load Steps": 1, "Relative Tolerance": 1e-12,
                                                 "Linear Solver": "Direct" if n <= self.DIRECT_UP_TO else "Belos"}}
         sim = build_simulation(tree)
-        sim.run_solvers()
+        run_sections(sim)
         owned = sim.num_owned
         x = sim.fields["Model_Coordinates"][:owned]
         exact = np.exp(x[:, 0]) * np.cos(x[:, 1])

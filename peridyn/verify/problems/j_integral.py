@@ -11,6 +11,7 @@ from typing import Any
 
 from .base import Check, Measurement, Problem
 from .griffith import CRITICAL_ENERGY, E, G0, initiation, plate_deck, tada
+from ...engine.session import run_sections
 
 #: horizon / spacing: the ``griffith`` plate's (first-bond failure matches Griffith within 10 % only for m ~ 3..4)
 M = 3.0
@@ -106,7 +107,7 @@ class JIntegral(Problem):
         t0 = time.perf_counter()
         tree, g = cracked_plate(resolution)
         sim = build_simulation(tree)
-        sim.run_solvers()
+        run_sections(sim)
         sigma, factor, broken = initiation(sim, g)
         J = {k: c.value(sim) for k, c in sim.outputs.computes.items()}
         wall = time.perf_counter() - t0

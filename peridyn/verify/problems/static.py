@@ -9,6 +9,7 @@ from typing import Any
 
 from .base import Check, Measurement, Problem
 from .lattice import interior_checks, interior_values
+from ...engine.session import run_sections
 
 K, MU = 160.0e9, 80.0e9  # Pa
 E0 = 9.0 * K * MU / (3.0 * K + MU)  # Pa, 205.7 GPa
@@ -114,7 +115,7 @@ class StaticModulus(Problem):
             solver = NEWTON if method == "Elastic Correspondence" else MATRIX_FREE
             bar = tensile_bar(MATERIALS[method], d, ratio=resolution, horizon=HORIZON, section=2.0, strain=STRAIN, solver=solver)
             sim = build_simulation(bar.tree, directory=d)
-            sim.run_solvers()
+            run_sections(sim)
             sim.outputs.close()
             st = sim.stats["solvers"][-1]
             if not st.get("converged", True):

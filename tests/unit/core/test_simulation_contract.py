@@ -2,8 +2,8 @@
 declared on ``peridyn.core.interfaces.Simulation``, and the engine provides every declared name.
 
 Read through the syntax of the package: every ``sim.NAME``, ``self.sim.NAME`` or
-``simulation.NAME`` outside ``engine/simulation.py`` (and the command line, which drives the
-engine itself) must be declared; assignments only to ``Simulation.writable``; no ``getattr``,
+``simulation.NAME`` outside ``engine/simulation.py`` (and the run session and the command line,
+which drive the engine itself) must be declared; assignments only to ``Simulation.writable``; no ``getattr``,
 ``hasattr`` or ``setattr`` probing a simulation, no ``sim.__dict__``.
 """
 from __future__ import annotations
@@ -17,7 +17,7 @@ from peridyn.core.interfaces import Simulation
 from peridyn.testing.harness import build_simulation, cube_deck
 
 PACKAGE = Path(__file__).resolve().parents[3] / "peridyn"
-OWN = {PACKAGE / "engine" / "simulation.py", PACKAGE / "cli.py"}
+OWN = {PACKAGE / "engine" / "simulation.py", PACKAGE / "engine" / "session.py", PACKAGE / "cli.py"}
 
 
 def declared() -> set[str]:

@@ -197,12 +197,12 @@ def test_an_output_and_a_history_section_of_one_name_are_one_run(tmp_path):
 
 def test_the_lock_is_released_when_a_run_fails(tmp_path, monkeypatch):
     deck = write(tmp_path)
-    from peridyn.engine.simulation import Simulation
+    from peridyn.engine import session
 
-    def boom(self):
+    def boom(sim):
         raise RuntimeError("simulated crash")
 
-    monkeypatch.setattr(Simulation, "run_solvers", boom)
+    monkeypatch.setattr(session, "run_sections", boom)
     assert run(deck) == ExitCode.FAILURE
     lock = OutputLock(tmp_path / "run.lock")
     assert lock.acquire()

@@ -13,6 +13,7 @@ from peridyn.core.errors import ExitCode, InputError, InstabilityError
 from peridyn.deck.model import load_deck
 from peridyn.engine import limits, plausibility
 from peridyn.engine.simulation import Simulation
+from peridyn.engine.session import run_sections
 
 #: glass in SI: 8 x 4 x 2 points 1 mm apart, a horizon of three spacings, about 30 steps
 DECK = textwrap.dedent(
@@ -219,7 +220,7 @@ def test_moduli_in_gpa_on_a_long_run_name_the_slip_at_the_instability(tmp_path):
     sim = Simulation(load_deck(write(tmp_path, modulus=72.0, final=0.5)), progress=False, output_dir=tmp_path)
     assert plausibility.unit_slip_hint(sim) == ""  # nothing yet: the body is at rest
     with pytest.raises(InstabilityError):
-        sim.run_solvers()
+        run_sections(sim)
     sim.outputs.close(complete=False)
     hint = plausibility.unit_slip_hint(sim)
     assert "the prescribed motion (" in hint and "times the wave speed sqrt(bulk modulus/density) = 0.133" in hint
@@ -278,7 +279,7 @@ def test_every_unit_slip_runs_warns_or_is_refused_naming_it(tmp_path, caplog, na
         sim.outputs.close(complete=False)
         return
     try:
-        sim.run_solvers()
+        run_sections(sim)
     except InstabilityError as exc:
         hint = plausibility.unit_slip_hint(sim)
         assert any(word in hint for word in NAMES) or warned, (names, str(exc))

@@ -17,6 +17,7 @@ from peridyn.io.interfaces import (
     find_interfaces,
     read_mesh_topology,
 )
+from peridyn.engine.session import run_sections
 
 netCDF4 = pytest.importorskip("netCDF4")
 
@@ -202,7 +203,7 @@ def test_reference_case_is_reproduced_bit_for_bit(tmp_path: Path):
     for name in ("Interfaces.xml", "Interfaces.g"):
         shutil.copy(CASE / name, tmp_path / name)
     sim = Simulation(load_deck(tmp_path / "Interfaces.xml"), output_dir=tmp_path, progress=False)
-    sim.run_solvers()
+    run_sections(sim)
     sim.outputs.close()
     sim.interfaces.close()
     ours = netCDF4.Dataset(tmp_path / "Interfaces.e")

@@ -14,6 +14,7 @@ import scipy.sparse.linalg as spla
 
 from peridyn.core.errors import InputError
 from peridyn.solvers.linalg.guyan import CondensedSolver, SingularCondensation, StaticCondensation
+from peridyn.engine.session import run_sections
 
 GUYAN = "Static Condensation"
 
@@ -112,7 +113,7 @@ def bar(h, tmp_path, reduction=None, linear="Direct", steps=2, pull=0.02):
 
 def run(h, tree, tmp_path):
     sim = h.build(tree, directory=tmp_path)
-    sim.run_solvers()
+    run_sections(sim)
     st = sim.stats["solvers"][-1]
     assert st["converged"]
     return sim.fields["Displacement"][: sim.num_owned].copy(), st
@@ -148,7 +149,7 @@ def test_tensile_bar_condensed_onto_its_gauge_section(h, tmp_path):
                   "QuasiStatic": {"Number of Load Steps": 1, "Relative Tolerance": 1.0e-8, **q}}
         bar_ = tensile_bar(h.LPS, tmp_path, ratio=2.015, horizon=1.0e-3, section=1.0, solver=solver)
         sim = h.build(bar_.tree, directory=tmp_path)
-        sim.run_solvers()
+        run_sections(sim)
         return sim.fields["Displacement"][: sim.num_owned].copy(), bar_.youngs_modulus(sim), sim.stats["solvers"][-1]
 
     u_full, e_full, _ = measure({"Linear Solver": "Direct"})
@@ -212,7 +213,7 @@ def test_plain_guyan_would_not_do(h, tmp_path):
     try:
         sim = h.build(bar(h, tmp_path, {"Type": GUYAN, "Reduction Blocks": "block_2"}, steps=1), directory=tmp_path)
         try:
-            sim.run_solvers()
+            run_sections(sim)
         except LoadStepError:  # its Newton steps are wrong: the load step does not converge
             return
         u = sim.fields["Displacement"][: sim.num_owned]

@@ -11,6 +11,7 @@ import pytest
 from peridyn.solvers.linalg.aztecoo import aztecoo_gmres as aztec_gmres
 from peridyn.solvers.linalg.linear import LinearSolver, belos_cg, gdot, gnorm, gsum, pcg, seq_dot, seq_norm2
 from peridyn.solvers.linalg.tangent import TangentMatrix
+from peridyn.engine.session import run_sections
 
 
 @pytest.fixture
@@ -190,7 +191,7 @@ def _qs_run(h, monkeypatch, limit: int | None, steps: int = 4):
     }
     tree["Solver"] = {"Initial Time": 0.0, "Final Time": 1.0, "QuasiStatic": {"Number of Load Steps": steps, "Relative Tolerance": 1e-10}}
     sim = h.build(tree)
-    sim.run_solvers()
+    run_sections(sim)
     return sim, sim.stats["solvers"][-1]
 
 

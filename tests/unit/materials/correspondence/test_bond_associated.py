@@ -15,6 +15,7 @@ from peridyn.core.errors import ExitCode, InstabilityError
 from peridyn.core.influence import ONE
 from peridyn.deck.files import dump_yaml
 from peridyn.materials.correspondence import bond_associated_kernels as kern
+from peridyn.engine.session import run_sections
 
 EMPTY = np.zeros(0)
 K, G = 160e9, 80e9
@@ -309,7 +310,7 @@ def simulate(tmp_path, tree):
 
     (tmp_path / "d.yaml").write_text(dump_yaml(tree))
     sim = Simulation(load_deck(tmp_path / "d.yaml"), output_dir=tmp_path, progress=False)
-    sim.run_solvers()
+    run_sections(sim)
     sim.outputs.close(complete=True)
     return sim
 

@@ -10,6 +10,7 @@ import pytest
 from peridyn.materials.correspondence.classic import ClassicCorrespondence
 from peridyn.solvers.linalg.tangent import TangentMatrix
 from peridyn.testing import build_simulation
+from peridyn.engine.session import run_sections
 
 H = 1.0e-3
 K, G = 160.0e9, 80.0e9
@@ -71,7 +72,7 @@ def _assemble(sim) -> np.ndarray:
 
 def test_the_compiled_tangent_is_the_python_finite_difference_bit_for_bit(tmp_path, compiled_calls, python_fd):
     sim = build_simulation(tree(steps=2, pull=2.0e-3), directory=tmp_path)
-    sim.run_solvers()  # plastic N state on the right, stress everywhere
+    run_sections(sim)  # plastic N state on the right, stress everywhere
     assert sim.fields.n("Equivalent_Plastic_Strain")[sim.blocks[1].start:sim.blocks[1].stop].max() > 0.0
     rng = np.random.default_rng(7)
     s = sim.fields
@@ -94,12 +95,12 @@ def test_the_compiled_tangent_is_the_python_finite_difference_bit_for_bit(tmp_pa
 def test_a_quasi_static_run_takes_the_same_newton_iterations(tmp_path, compiled_calls, python_fd):
     t = tree(steps=2, pull=2.0e-3)
     sim = build_simulation(t, directory=tmp_path)
-    sim.run_solvers()
+    run_sections(sim)
     compiled = (sim.nonlinear_iterations, sim.fields["Coordinates"].copy())
     assert compiled_calls and all(compiled_calls)
     python_fd()
     sim = build_simulation(t, directory=tmp_path)
-    sim.run_solvers()
+    run_sections(sim)
     assert compiled[0] > 0
     assert sim.nonlinear_iterations == compiled[0]
     np.testing.assert_array_equal(sim.fields["Coordinates"], compiled[1])

@@ -11,6 +11,7 @@ from peridyn.materials.correspondence.bond_associated import BondAssociatedCorre
 from peridyn.materials.correspondence.hypoelastic import HypoelasticCorrespondence
 from peridyn.solvers.linalg.tangent import TangentMatrix
 from peridyn.testing import build_simulation
+from peridyn.engine.session import run_sections
 
 H = 1.0e-3
 K, G = 160.0e9, 80.0e9
@@ -72,7 +73,7 @@ def test_the_compiled_tangent_is_the_python_finite_difference_bit_for_bit(tmp_pa
     materials, cls, pull = FAMILIES[family]
     calls = _spy(monkeypatch, cls)
     sim = build_simulation(tree(materials, pull=pull), directory=tmp_path)
-    sim.run_solvers()  # plastic N state on the right, stress everywhere
+    run_sections(sim)  # plastic N state on the right, stress everywhere
     assert sim.fields.n("Equivalent_Plastic_Strain").max() > 0.0
     rng = np.random.default_rng(11)
     s = sim.fields
@@ -98,12 +99,12 @@ def test_a_quasi_static_run_takes_the_same_newton_iterations(tmp_path, monkeypat
     calls = _spy(monkeypatch, cls)
     t = tree(materials, pull=pull)
     sim = build_simulation(t, directory=tmp_path)
-    sim.run_solvers()
+    run_sections(sim)
     compiled = (sim.nonlinear_iterations, sim.fields["Coordinates"].copy())
     assert calls and all(calls)
     monkeypatch.setattr(cls, "tangent", lambda self, block, target: False)
     sim = build_simulation(t, directory=tmp_path)
-    sim.run_solvers()
+    run_sections(sim)
     assert compiled[0] > 0
     assert sim.nonlinear_iterations == compiled[0]
     np.testing.assert_array_equal(sim.fields["Coordinates"], compiled[1])

@@ -9,6 +9,7 @@ import pytest
 
 from peridyn.core.errors import InputError
 from peridyn.testing import build_simulation, cube_deck
+from peridyn.engine.session import run_sections
 
 MU, LAM = 80.0e9, 50.0e9
 LAW = {"Material Model": "Stress Law Correspondence", "Density": 7800.0, "Shear Modulus": MU, "Bulk Modulus": LAM + 2.0 * MU / 3.0,
@@ -38,7 +39,7 @@ def prescribed(F_end, material=LAW, steps=4):
 
 def final_stress(tmp_path, F_end):
     sim = build_simulation(prescribed(F_end), directory=tmp_path)
-    sim.run_solvers()
+    run_sections(sim)
     # a step ends by swapping the two-step fields: the last step's values are in N
     return sim.fields.n("Cauchy_Stress")[: sim.num_owned].reshape(-1, 3, 3), sim
 
@@ -108,7 +109,7 @@ def test_the_state_and_the_old_deformation_gradient_come_from_the_last_step(tmp_
     monkeypatch.syspath_prepend(str(tmp_path))
     material = dict(LAW, **{"Stress Law": "peridyn_test_counter_law:counter", "Law Parameters": []})
     sim = build_simulation(prescribed(np.diag([1.5, 1.0, 1.0]), material=material, steps=4), directory=tmp_path)
-    sim.run_solvers()
+    run_sections(sim)
     state = sim.fields.n("Stress_Law_State")[: sim.num_owned]
     # one call per step on the last step's state (the evaluation before the first step commits nothing)
     assert np.all(state[:, 0] == 4.0) and np.allclose(state[:, 1], 4 * 1.0e-8, rtol=1e-12)

@@ -13,6 +13,7 @@ from peridyn.solvers.implicit.quasistatic import (
     reduce_remaining_load_steps,
 )
 from tests.unit.solvers.implicit.test_implicit_solvers import bar_deck
+from peridyn.engine.session import run_sections
 
 
 # -- the rules, one by one ----------------------------------------------------------------------
@@ -65,7 +66,7 @@ def qs(h, tmp_path, **adaptive_and_more):
 def residual_after_one_iteration(h, tmp_path):
     sim = qs(h, tmp_path, qs={"Absolute Tolerance": 1e-30})
     with pytest.raises(LoadStepError):
-        sim.run_solvers()
+        run_sections(sim)
     return sim.stats["solvers"][0]["load_steps"][0]["residual"]
 
 
@@ -84,7 +85,7 @@ def attempts(sim):
 def test_halving_until_a_step_converges_then_the_remaining_steps(h, tmp_path, tolerance):
     sim = qs(h, tmp_path, qs={"Absolute Tolerance": tolerance}, **{"Maximum load step reductions in one step": 2, "Maximum total load step reductions": 5,
                                                                 "Adaptive output frequency": True})
-    sim.run_solvers()
+    run_sections(sim)
     got = attempts(sim)
     # 1 -> 0.5 -> 0.25 (accepted); then 0.25 to 0.5 at dt 0.25; then 0.5 to 1 fails once and is halved
     assert [dt for dt, _ in got] == [1.0, 0.5, 0.25, 0.25, 0.5, 0.25, 0.25]
@@ -97,7 +98,7 @@ def test_halving_until_a_step_converges_then_the_remaining_steps(h, tmp_path, to
 def test_reduce_all_remaining_load_steps_keeps_the_small_step(h, tmp_path, tolerance):
     sim = qs(h, tmp_path, qs={"Absolute Tolerance": tolerance}, **{"Maximum load step reductions in one step": 2, "Maximum total load step reductions": 2,
                                                                 "Reduce all remaining load steps": True})
-    sim.run_solvers()
+    run_sections(sim)
     got = attempts(sim)
     assert [dt for dt, _ in got] == [1.0, 0.5, 0.25, 0.25, 0.25, 0.25]
     assert sim.stats["solvers"][0]["load_step_reductions"] == 2
@@ -108,7 +109,7 @@ def test_reduce_all_remaining_load_steps_keeps_the_small_step(h, tmp_path, toler
 def test_too_many_reductions_in_one_step_stop_the_solver(h, tmp_path, tolerance):
     sim = qs(h, tmp_path, qs={"Absolute Tolerance": tolerance}, **{"Maximum load step reductions in one step": 1, "Maximum total load step reductions": 5})
     with pytest.raises(LoadStepError, match="no more load step reductions"):
-        sim.run_solvers()
+        run_sections(sim)
     assert [o for _, o in attempts(sim)] == ["cut back", "failed"]
     assert sim.outputs.writers[0].count == 1  # only the initial write
 
@@ -116,7 +117,7 @@ def test_too_many_reductions_in_one_step_stop_the_solver(h, tmp_path, tolerance)
 def test_the_total_limit_counts_every_halving(h, tmp_path, tolerance):
     sim = qs(h, tmp_path, qs={"Absolute Tolerance": tolerance}, **{"Maximum load step reductions in one step": 2, "Maximum total load step reductions": 2})
     with pytest.raises(LoadStepError):
-        sim.run_solvers()
+        run_sections(sim)
     # two halvings reach the quarter step; 0.5 -> 1.0 fails again: the third reduction is over the total
     assert [o for _, o in attempts(sim)] == ["cut back", "cut back", "accepted", "accepted", "failed"]
 
@@ -124,7 +125,7 @@ def test_the_total_limit_counts_every_halving(h, tmp_path, tolerance):
 def test_switch_to_verlet_restarts_from_the_last_accepted_step(h, tmp_path, tolerance):
     sim = qs(h, tmp_path, qs={"Absolute Tolerance": tolerance}, **{"Maximum load step reductions in one step": 2, "Maximum total load step reductions": 2,
                                                                 "Switch to Verlet": {"Fixed dt": 1.0e-4, "Output Frequency": 400}})
-    sim.run_solvers()
+    run_sections(sim)
     st = sim.stats["solvers"]
     assert [s["method"] for s in st] == ["QuasiStatic", "Verlet"]
     assert st[1]["steps"] == 5000  # from t_prev = 0.5 to 1.0 at dt 1e-4 (below the estimate, 1.18e-4)
@@ -138,7 +139,7 @@ def test_a_switch_to_verlet_that_cannot_advance_stops_the_run(h, tmp_path, toler
     sim = qs(h, tmp_path, qs={"Absolute Tolerance": tolerance}, **{"Maximum load step reductions in one step": 2, "Maximum total load step reductions": 2,
                                                                 "Switch to Verlet": {"Fixed dt": 0.6}})
     with pytest.raises(LoadStepError, match=r"Switch to Verlet cannot continue the run from t = 0.5: .*longer than the solver's interval 0.5"):
-        sim.run_solvers()
+        run_sections(sim)
 
 
 def test_a_switch_to_verlet_with_an_absurd_step_count_is_refused_at_set_up(h, tmp_path):

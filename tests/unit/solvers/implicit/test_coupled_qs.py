@@ -11,6 +11,7 @@ from peridyn.solvers.linalg.coupled_tangent import CoupledTangent
 from peridyn.testing import build_simulation, cube_deck
 from peridyn.testing.harness import node_set_ids
 from peridyn.testing.mpi import mpirun, requires_mpi
+from peridyn.engine.session import run_sections
 
 FLUID = {
     "Permeability": 1.0e-12, "Fluid density": 1.0, "Fluid dynamic viscosity": 1.0, "Fluid compressibility": 1.0e-9,
@@ -49,7 +50,7 @@ def run(tree, tmp_path, outputs=("Displacement", "Fluid_Pressure_U", "Flux_Densi
     tree = dict(tree, Output={"Output Filename": "run", "Output Frequency": 1, "Output Variables": {k: True for k in outputs}})
     sim = build_simulation(tree, directory=tmp_path, output_dir=tmp_path)
     try:
-        sim.run_solvers()
+        run_sections(sim)
     finally:
         sim.outputs.close()
     return sim

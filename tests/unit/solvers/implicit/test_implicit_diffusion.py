@@ -12,6 +12,7 @@ from peridyn.solvers.implicit.diffusion import DiffusionStepError
 from peridyn.testing import build_simulation, cube_deck
 from peridyn.testing.harness import node_set_ids
 from peridyn.testing.mpi import mpirun, requires_mpi
+from peridyn.engine.session import run_sections
 
 SOLVE_FOR = {"Solve For Displacement": False, "Solve For Temperature": True}
 
@@ -34,7 +35,7 @@ def run_deck(tree, tmp_path, outputs=("Temperature", "Flux_Divergence")):
     tree = dict(tree, Output={"Output Filename": "run", "Output Frequency": 1, "Output Variables": {k: True for k in outputs}})
     sim = build_simulation(tree, directory=tmp_path, output_dir=tmp_path)
     try:
-        sim.run_solvers()
+        run_sections(sim)
     finally:
         sim.outputs.close()
     return sim

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from peridyn.core.errors import InputError
+from peridyn.engine.session import run_sections
 
 
 def bar_deck(h, solver, *, damage=False, shape=(6, 3, 3), pull=0.01):
@@ -89,7 +90,7 @@ def test_nox_option_trees_are_accepted(h):
         },
     }
     sim = h.build(bar_deck(h, solver))
-    sim.run_solvers()
+    run_sections(sim)
     assert sim.nonlinear_iterations >= 1
 
 
@@ -98,7 +99,7 @@ def test_reactions_balance_and_force_output(h):
     at the converged configuration; internal forces sum to zero, so the reactions at the two
     ends are equal and opposite and the free points are in equilibrium."""
     sim = h.build(bar_deck(h, QS))
-    sim.run_solvers()
+    run_sections(sim)
     n = sim.num_owned
     F = sim.fields["Force_Density"][:n] * sim.fields["Volume"][:n, None]
     x = sim.fields["Model_Coordinates"][:n]
@@ -147,9 +148,9 @@ def test_linear_solver_choice_gives_the_same_solution(h, method):
     reactions, i.e. displacements agree to ~1e-10 relative)."""
     solver = {"Initial Time": 0.0, "Final Time": 1.0, "QuasiStatic": {"Number of Load Steps": 1, "Relative Tolerance": 1e-10, "Linear Solver": method}}
     sim = h.build(bar_deck(h, solver, pull=0.02))
-    sim.run_solvers()
+    run_sections(sim)
     ref = h.build(bar_deck(h, dict(solver, QuasiStatic=dict(solver["QuasiStatic"], **{"Linear Solver": "Direct"})), pull=0.02))
-    ref.run_solvers()
+    run_sections(ref)
     u, u_ref = sim.fields["Displacement"], ref.fields["Displacement"]
     np.testing.assert_allclose(u, u_ref, rtol=0, atol=1e-8 * np.abs(u_ref).max())
 
@@ -193,7 +194,7 @@ def test_switch_to_verlet_after_too_many_reductions(h):
         },
     }
     sim = h.build(bar_deck(h, solver))
-    sim.run_solvers()
+    run_sections(sim)
     methods = [st["method"] for st in sim.stats["solvers"]]
     assert methods == ["QuasiStatic", "Verlet"]
     assert sim.stats["solvers"][1]["steps"] == 20
@@ -225,9 +226,9 @@ def test_nox_variants_reach_the_quasistatic_equilibrium(h, preconditioner, direc
     if preconditioner is not None:
         solver["Peridigm Preconditioner"] = preconditioner
     sim = h.build(bar_deck(h, solver))
-    sim.run_solvers()
+    run_sections(sim)
     ref = h.build(bar_deck(h, QS))
-    ref.run_solvers()
+    run_sections(ref)
     u, u_ref = sim.fields["Displacement"], ref.fields["Displacement"]
     np.testing.assert_allclose(u, u_ref, rtol=0, atol=1e-7 * np.abs(u_ref).max())
     np.testing.assert_allclose(sim.fields["Velocity"], ref.fields["Velocity"], rtol=0, atol=1e-7 * np.abs(ref.fields["Velocity"]).max())
@@ -239,7 +240,7 @@ def test_nox_counts_one_step_when_the_initial_guess_has_converged(h):
     only finds the initial guess converged (here: nothing moves, F = 0)."""
     solver = {"Initial Time": 0.0, "Final Time": 1.0, "NOXQuasiStatic": {"Number of Load Steps": 3, "Absolute Tolerance": 1.0, "Direction": {"Method": "Newton"}}}
     sim = h.build(bar_deck(h, solver, pull=0.0))
-    sim.run_solvers()
+    run_sections(sim)
     assert sim.nonlinear_iterations == 3
 
 
@@ -249,7 +250,7 @@ def test_nox_failure_stops_the_run(h):
     solver = {"Initial Time": 0.0, "Final Time": 1.0, "NOXQuasiStatic": {"Number of Load Steps": 1, "Absolute Tolerance": 1e-30, "Max Solver Iterations": 2, "Direction": {"Method": "Newton"}}}
     sim = h.build(bar_deck(h, solver))
     with pytest.raises(NOXConvergenceError, match="did not converge in 2 NOX steps"):
-        sim.run_solvers()
+        run_sections(sim)
 
 
 @pytest.mark.parametrize(("preconditioner", "warned", "tangent"), [(None, True, "full"), ("None", False, "block diagonal")])
@@ -263,6 +264,6 @@ def test_matrix_free_without_peridigm_preconditioner_warns_of_the_full_tangent(h
         solver["Peridigm Preconditioner"] = preconditioner
     sim = h.build(bar_deck(h, solver))
     with caplog.at_level("WARNING", logger="peridyn"):
-        sim.run_solvers()
+        run_sections(sim)
     assert any("assembles the full tangent" in r.getMessage() for r in caplog.records) == warned
     assert list(sim.solver_cache["implicit tangents"]) == [tangent]

@@ -13,6 +13,7 @@ from peridyn.solvers.implicit.trust_region import (
     TrustRegionOptions,
     TrustRegionSolver,
 )
+from peridyn.engine.session import run_sections
 
 A = np.array([[1.0, 0.3, -0.1], [0.2, 1.0, 0.1], [-0.1, 0.25, 1.0]])
 
@@ -225,9 +226,9 @@ def test_nox_trust_region_reaches_the_quasistatic_equilibrium(h):
     nox = {"Number of Load Steps": 2, "Relative Tolerance": 1e-10, "Nonlinear Solver": "Inexact Trust Region Based", "Direction": {"Method": "Newton"},
            "Trust Region": {"Minimum Improvement Ratio": 1e-4, "Use Counters": True}}
     sim = h.build(nox_bar(h, nox))
-    sim.run_solvers()
+    run_sections(sim)
     ref = h.build(bar_deck(h, QS))
-    ref.run_solvers()
+    run_sections(ref)
     u, u_ref = sim.fields["Displacement"], ref.fields["Displacement"]
     np.testing.assert_allclose(u, u_ref, rtol=0, atol=1e-7 * np.abs(u_ref).max())
     st = sim.stats["solvers"][0]["trust_region"]
