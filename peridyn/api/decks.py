@@ -16,7 +16,7 @@ import numpy as np
 
 from ..core.discretization import Discretization
 from ..core.errors import InputError
-from ..core.interfaces import DiscretizationReader
+from ..core.discretization import DiscretizationReader
 from ..core.params import ModelParams
 from ..deck.model import Deck, load_deck, parse_deck
 from .checks import plain

@@ -143,7 +143,7 @@ class Model:
         if not self._started:
             plan = self._solvers()
             return float(plan[0][0].params.initial_time) if plan else 0.0
-        return float(self.sim.time)
+        return float(self.sim.state.time)
 
     @property
     def dt(self) -> float:
@@ -153,7 +153,7 @@ class Model:
         steps are not known before it runs (QuasiStatic, NOXQuasiStatic, ...) is an
         ArgumentError saying so."""
         if self._started:
-            return float(self.sim.time_step)
+            return float(self.sim.state.time_step)
         plan = self._solvers()
         solver = plan[0][0]
         if hasattr(solver, "time_step"):
@@ -349,7 +349,7 @@ class Model:
         for name, (fn, every) in self._computes.items():
             if force or step % every == 0:
                 value = fn(self)
-                self._history[name][0].append(float(self.sim.time))
+                self._history[name][0].append(float(self.sim.state.time))
                 self._history[name][1].append(np.array(value, copy=True) if isinstance(value, np.ndarray) else value)
 
     # -- running -------------------------------------------------------------------------------
@@ -460,7 +460,7 @@ class Model:
             raise ArgumentError(f"until = {until!r} is before the current time {self.time!r}", path=("Model.run", "until"),
                                 fix="give a time at or after model.time, or None to run to the end")
         while not self._ended:
-            if self._started and self.sim.time >= until - 1e-9 * max(self.sim.time_step, 0.0):
+            if self._started and self.sim.state.time >= until - 1e-9 * max(self.sim.state.time_step, 0.0):
                 break
             if not self._advance(until):
                 break

@@ -200,7 +200,7 @@ class ContactManager:
         """Energy stored in the contact springs now (None if the model does not say). Collective."""
         if self.pairs is None or self.state is None and self.ghosts is not None:
             return 0.0
-        state = self._current_state(self.sim.time) if self.ghosts is None else self.state
+        state = self._current_state(self.sim.state.time) if self.ghosts is None else self.state
         e = self.model.potential_energy(self.pairs, state)
         return None if e is None else float(self.sim.comm.allreduce_sum(e))
 

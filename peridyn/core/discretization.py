@@ -6,10 +6,15 @@ for memory locality; that order never leaks into output.
 """
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
+
+from .params import ModelParams
 
 #: builds candidate neighbor lists for a grid generator. Called as ``rule(points, horizon)`` with
 #: ``points`` the mothership indices (int64, shape (k,)) whose lists are wanted and ``horizon``
@@ -65,3 +70,30 @@ class Discretization:
                 raise ValueError(f"{name} has shape {arr.shape}, expected ({n},)")
         if n and len(np.unique(self.gid)) != n:
             raise ValueError("global ids are not unique")
+
+
+class DiscretizationReader(ABC):
+    """Reads or generates the points of a model.
+
+    ``name`` is the deck's ``Discretization > Type`` value. ``Params`` validates the
+    ``Discretization`` section without the keys every discretization shares (``Type``,
+    ``Influence Function``, ``Bond Filters``, ``Omit Bonds Between Blocks``).
+    """
+
+    name: ClassVar[str]
+    Params: ClassVar[type[ModelParams]]
+    #: whether ``Bond Filters`` and ``Omit Bonds Between Blocks`` may be used with this reader
+    supports_bond_filters: ClassVar[bool] = True
+
+    def __init__(self, params: ModelParams, *, deck_dir: Path) -> None:
+        self.params = params
+        self.deck_dir = deck_dir
+
+    def estimate_points(self) -> int | None:
+        """The number of points ``read`` would return, known before any is made (generators),
+        or None; lets the engine refuse a model that cannot fit in memory before allocating it."""
+        return None
+
+    @abstractmethod
+    def read(self) -> "Discretization":
+        """Return the points in mothership order; raise InputError for unreadable input."""

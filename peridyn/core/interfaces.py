@@ -18,80 +18,26 @@ import numpy as np
 
 from .fields import FieldSpec, FieldStore
 from .params import ModelParams
+from .traversal import Backend
 from .conditions import Condition
 from .placement import Placement
-from .traversal import Backend
+from .moduli import ElasticModuli  # the plugin API: materials report their constants with it
+from .services import (
+    Communicator,
+    DataLoader,
+    DeckEntry,
+    DeckView,
+    Halo,
+    Influence,
+    InterfaceOutput,
+    Outputs,
+    RunCheckpoints,
+)
+from .state import SolverState
+from .views import BlockView  # the plugin API: what a model works on
 
 from .bonds import NeighborList
 from .discretization import Discretization
-
-
-# ------------------------------------------------------------------------------------------------
-# Discretizations
-# ------------------------------------------------------------------------------------------------
-class DiscretizationReader(ABC):
-    """Reads or generates the points of a model.
-
-    ``name`` is the deck's ``Discretization > Type`` value. ``Params`` validates the
-    ``Discretization`` section without the keys every discretization shares (``Type``,
-    ``Influence Function``, ``Bond Filters``, ``Omit Bonds Between Blocks``).
-    """
-
-    name: ClassVar[str]
-    Params: ClassVar[type[ModelParams]]
-    #: whether ``Bond Filters`` and ``Omit Bonds Between Blocks`` may be used with this reader
-    supports_bond_filters: ClassVar[bool] = True
-
-    def __init__(self, params: ModelParams, *, deck_dir: Path) -> None:
-        self.params = params
-        self.deck_dir = deck_dir
-
-    def estimate_points(self) -> int | None:
-        """The number of points ``read`` would return, known before any is made (generators),
-        or None; lets the engine refuse a model that cannot fit in memory before allocating it."""
-        return None
-
-    @abstractmethod
-    def read(self) -> "Discretization":
-        """Return the points in mothership order; raise InputError for unreadable input."""
-
-
-# ------------------------------------------------------------------------------------------------
-# What a model sees of its block
-# ------------------------------------------------------------------------------------------------
-@dataclass
-class BlockView:
-    """The arrays one block's models work on.
-
-    Local point indices run over owned points first, then ghosts; the block owns the contiguous
-    range ``start:stop`` of owned points. Neighbor lists (``bonds``) are CSR over local points:
-    the bonds of point ``i`` are ``bonds.neighbors[bonds.offsets[i]:bonds.offsets[i+1]]``, and a
-    bond field's row ``b`` belongs to the bond at position ``b`` of that array.
-
-    ``closed`` is true when every neighbor of every point of the block belongs to the block and
-    is owned locally, so a material may compute both ends of each bond itself (a fused kernel).
-    """
-
-    name: str
-    block_id: int
-    start: int
-    stop: int
-    horizon: float  #: the block's horizon (constant horizons); per point: fields["Horizon"]
-    density: float
-    fields: FieldStore
-    bonds: "NeighborList"
-    num_owned: int
-    closed: bool = False
-    damage_symmetric: bool = False  #: the block's damage model gives both bond ends equal damage
-    influence: Any = None  #: InfluenceFunction of the discretization
-    time: float = 0.0
-    time_step: float = 0.0
-    extras: dict[str, Any] = field(default_factory=dict)
-    backend: Backend | None = None  #: where the block's arrays live and its loops run (None: numba on CPU threads)
-
-    @property
-    def num_points(self) -> int:
-        return self.stop - self.start
 
 
 # ------------------------------------------------------------------------------------------------
@@ -103,46 +49,6 @@ ForceStateKind = Literal["scalar", "vector"]
 TangentCoupling = Literal["family", "pairs"]
 #: the stored-energy form of a material's bonds (``Material.bond_energy``)
 BondEnergy = Literal["pair", "lps"]
-#: how a material treats the model's dimension (``ElasticModuli.planar``)
-Planar = Literal["3d", "plane strain", "plane stress"]
-
-
-@dataclass(frozen=True)
-class ElasticModuli:
-    """The small-strain linear elastic constants of a material (``Material.elastic_moduli``),
-    what models that need a material's stiffness read (``Critical Energy``, ``J_Integral``)
-    instead of the material's own attributes. Moduli in M L^-1 T^-2 (Pa in SI).
-
-    ``bulk`` is the bulk modulus K the material's force law uses: in a planar model
-    (``planar`` not "3d") the in-plane (2D) bulk modulus, lambda + mu in plane strain and
-    E / (2 (1 - nu)) in plane stress, as Peridigm's conversion of E and nu gives it.
-    ``shear`` is the shear modulus mu (bond-based materials: the value their fixed Poisson's
-    ratio implies, 3/5 K in 3D and K/2 in 2D). ``hookean`` is True when these constants alone
-    give the material's small-strain stress, sigma = lambda tr(eps) I + 2 mu eps; False when
-    they are the elastic part of a response that also depends on internal state or other fields
-    (plasticity, viscoelasticity, fluid pressure). ``thickness`` (L) is the thickness (Height) of
-    a planar model whose force law depends on it, else None; ``micromodulus`` is the pair
-    stiffness c of a bond-based material (3D: M L^-5 T^-2; planar: per thickness), else None.
-    """
-
-    bulk: float
-    shear: float
-    planar: Planar = "3d"
-    hookean: bool = True
-    thickness: float | None = None
-    micromodulus: float | None = None
-
-    def youngs_and_poisson(self) -> tuple[float, float]:
-        """(E, nu) of the Hooke law with these constants in the model's dimension (``planar``)."""
-        K, mu = float(self.bulk), float(self.shear)
-        if self.planar == "plane stress":  # K = E / (2 (1 - nu)), mu = E / (2 (1 + nu))
-            return 4.0 * K * mu / (K + mu), (K - mu) / (K + mu)
-        if self.planar == "plane strain":  # K = lambda + mu
-            lam = K - mu
-            return mu * (3 * lam + 2 * mu) / (lam + mu), lam / (2 * (lam + mu))
-        return 9.0 * K * mu / (3.0 * K + mu), (3.0 * K - 2.0 * mu) / (2.0 * (3.0 * K + mu))
-
-
 #: the largest bond strain of the linear (small-strain) laws' range (``Material.small_strain_limit``)
 SMALL_STRAIN = 0.1
 
@@ -365,6 +271,24 @@ class DamageModel(ABC):
 # ------------------------------------------------------------------------------------------------
 # What computes, contact models and solvers see of a simulation
 # ------------------------------------------------------------------------------------------------
+class ModelBlock(Protocol):
+    """A block of the model: a contiguous range ``start:stop`` of owned local points with one
+    material (and optionally one damage model) and the view its kernels get."""
+
+    index: int  #: position in ``Simulation.blocks``
+    name: str
+    block_id: int
+    material: Material
+    damage: DamageModel | None
+    horizon: float | None  #: constant horizon (L), or None when it varies in space
+    start: int
+    stop: int
+    fused: bool  #: a fused kernel covers the block (its group's view: ``fused_view``)
+    view: BlockView | None
+    fused_view: BlockView | None
+    path: tuple[str, ...]  #: the block's deck path (messages)
+
+
 class Simulation(Protocol):
     """The part of the engine's simulation (:class:`peridyn.engine.simulation.Simulation`) that
     computes, contact models and solvers use. Arrays are over local points: owned points
@@ -373,42 +297,40 @@ class Simulation(Protocol):
 
     fields: FieldStore  #: every allocated field, by name (``fields["Velocity"]``: (num_local, 3))
     bonds: NeighborList  #: CSR bonds over local points
-    blocks: list[Any]  #: blocks in deck order; each has ``view`` (a BlockView), ``material``, ``damage``
-    comm: Any  #: communicator: ``rank``, ``size``, ``allreduce_sum``, ``allreduce_max``, ...
+    blocks: list[ModelBlock]  #: blocks in deck order
+    comm: Communicator  #: serial or MPI communicator
     num_owned: int
     num_local: int
     num_global: int  #: points in the whole model
-    time: float  #: current time (T)
-    time_prev: float
+    state: SolverState  #: what the solver sections write and hand on: time, step, acceleration, increments, iterations
     gid: np.ndarray  #: (num_local,) int64 0-based global ids
     stats: dict[str, Any]  #: run statistics a solver records for the end-of-run summary
-    deck: Any  #: the validated deck (peridyn.deck.model.Deck)
+    deck: DeckView  #: the validated deck (peridyn.deck.model.Deck)
     discretization: Discretization  #: the points as read, in mothership order
     mothership_of_local: np.ndarray  #: (num_local,) int64 mothership index of each local point
     local_of_mothership: np.ndarray  #: (num_global,) int64 local index, -1 where not on this rank
     node_sets: dict[str, np.ndarray]  #: node set name -> mothership indices
     prescribed_dofs: np.ndarray  #: (num_local, 3) bool, components a kinematic condition sets
     prescribed_points: np.ndarray  #: (k,) int64 sorted local points with a prescribed displacement component
-    restart: Any | None  #: checkpoints and restarts (peridyn.engine.restart.Checkpoints), None without a Restart section or --restart
-    delta_u: np.ndarray | None  #: (num_local, 3) displacement increment of the implicit solvers
-    output_dir: Any  #: folder of the output files (pathlib.Path)
+    restart: RunCheckpoints | None  #: checkpoints and restarts (peridyn.engine.restart.Checkpoints), None without a Restart section or --restart
+    output_dir: Path  #: folder of the output files
     num_bonds_global: int  #: bonds of the whole model (each direction counted)
     block_index: np.ndarray  #: (num_local,) int64 index into ``blocks`` of each local point
     block_index_mothership: np.ndarray  #: (num_global,) int64 block index of each mothership point
-    block_specs: list[Any]  #: the deck's block entries, in the order of ``blocks``
-    generic_blocks: list[Any]  #: blocks no fused kernel covers (force state + gather)
+    block_specs: list[tuple[str, int, DeckEntry]]  #: (name, block id, the deck's entry) of each block, in the order of ``blocks``
+    generic_blocks: list[ModelBlock]  #: blocks no fused kernel covers (force state + gather)
     horizon_local: np.ndarray  #: (num_local,) horizon of each local point (L)
-    influence: Any  #: the influence function (peridyn.geometry.influence.InfluenceFunction)
+    influence: Influence  #: the influence function (peridyn.geometry.influence.InfluenceFunction)
     owner: np.ndarray  #: (num_local,) int rank that owns each local point
-    halo: Any  #: ghost exchange: ``exchange(a)``, ``reverse_sum(a)``, ``begin(a)``/``end(p)`` (a no-op serially)
+    halo: Halo  #: ghost exchange (a no-op serially)
     precompute_fields: list[str]  #: fields materials precompute and the halo carries before forces
     conditions: list[Condition]  #: boundary and initial conditions bound to this rank's points, deck order
     kinematic: list[Condition]  #: the conditions applied before a step (prescribed displacement, temperature, pressure)
     force_conditions: list[Condition]  #: the conditions that set External_Force_Density (body forces)
-    data_loader: Any | None  #: the deck's data loader (fields read from files over time), None without one
-    outputs: Any  #: the output manager (``variables``: name -> variable of every output)
-    contact: Any | None  #: the contact manager, None without a Contact section
-    interfaces: Any | None  #: block interfaces (``Construct Interfaces``), None otherwise
+    data_loader: DataLoader | None  #: the deck's data loader (fields read from files over time), None without one
+    outputs: Outputs  #: the output manager (peridyn.engine.output.OutputManager)
+    contact: ContactRun | None  #: the contact manager, None without a Contact section
+    interfaces: InterfaceOutput | None  #: block interfaces (``Construct Interfaces``), None otherwise
     element_nodes: np.ndarray | None  #: (n, 8, 3) hexahedron nodes (``Compute Element-Horizon Intersections``), else None
     write_files: bool  #: False for ``peridyn check``: nothing is written
     progress: bool  #: whether solvers show progress
@@ -417,17 +339,11 @@ class Simulation(Protocol):
     host: Placement  #: the explicit step's arrays where this simulation holds them (peridyn.core.placement)
     device: str  #: "cpu", or "gpu" for an explicit run on one GPU (``--device``, the solver's ``Device``)
     device_backend: Backend | None  #: the GPU backend of a "gpu" run (set-up stays on ``backend``), else None
-    time_step: float  #: the current step of the solver running (T)
     overlap: bool  #: MPI: rows without ghost neighbors computed while halo messages travel
-    solver_cache: dict[str, Any]  #: what solver sections share (e.g. the implicit tangents' storage)
-    #: state solvers hand on to later solver sections and the output: written by solvers only
-    acceleration: np.ndarray | None  #: (num_local, 3) of the last dynamic step (L T^-2), None before one
-    delta_p: np.ndarray | None  #: (num_local,) fluid pressure increment of the coupled solver
-    nonlinear_iterations: int  #: iterations of the last implicit step (an output variable)
 
-    #: the attributes code outside the engine may assign (solvers: time, increments, iterations;
-    #: the conformance kit: ``overlap``); every other attribute is the engine's
-    writable: ClassVar[frozenset[str]] = frozenset({"time", "time_prev", "delta_u", "delta_p", "nonlinear_iterations", "acceleration", "overlap"})
+    #: the attributes code outside the engine may assign (the conformance kit: ``overlap``); solvers
+    #: write the members of ``state``, every other attribute is the engine's
+    writable: ClassVar[frozenset[str]] = frozenset({"overlap"})
 
     def evaluate_forces(self) -> np.ndarray:
         """Internal force density (num_owned, 3) at the current positions (M L^-2 T^-2)."""
@@ -450,7 +366,7 @@ class Simulation(Protocol):
     def begin_step(self, time: float) -> None:
         """Start of a step at ``time``: models that change with time (damage laws of t) update."""
 
-    def plan_solvers(self) -> list[tuple[Any, int | None, float | None]]:
+    def plan_solvers(self) -> list[tuple[Solver, int | None, float | None]]:
         """The deck's solvers in order: (solver, planned steps, estimated seconds)."""
 
     def set_time_step(self, dt: float) -> None:
@@ -587,6 +503,21 @@ class ContactModel(ABC):
         """Energy (M L^2 T^-2) held by the owned points' visits now, or None if unknown (the
         stability monitor then cannot tell created energy from released contact energy)."""
         return None
+
+
+class ContactRun(Protocol):
+    """The contact of a run (:class:`peridyn.contact.manager.ContactManager`): its schedule of
+    pair searches and the forces added to a step."""
+
+    model: ContactModel
+
+    def begin_step(self, step: int) -> None: ...
+    def add_force(self, f: np.ndarray, t: float, step: int) -> None: ...
+    def potential_energy(self) -> float | None: ...
+    def stable_time_step(self) -> float: ...
+    def stiffness_ratio(self) -> float: ...
+    def diagnosis(self, dt: float) -> str: ...
+    def summary(self) -> dict[str, Any]: ...
 
 
 # ------------------------------------------------------------------------------------------------

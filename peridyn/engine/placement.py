@@ -29,19 +29,19 @@ class HostPlacement:
 
     @property
     def acceleration(self) -> np.ndarray | None:
-        return self.sim.acceleration
+        return self.sim.state.acceleration
 
     @acceleration.setter
     def acceleration(self, value: np.ndarray) -> None:
-        self.sim.acceleration = value
+        self.sim.state.acceleration = value
 
     @property
     def delta_u(self) -> np.ndarray | None:
-        return self.sim.delta_u
+        return self.sim.state.delta_u
 
     @property
     def delta_p(self) -> np.ndarray | None:
-        return self.sim.delta_p
+        return self.sim.state.delta_p
 
     @property
     def contact(self) -> StepContact | None:

@@ -207,7 +207,7 @@ class Checkpoints:
         name = signal.Signals(signum).name
         sim = self.sim
         at = f"after step {step} of solver section {self.section + 1}" if step is not None else f"after solver section {self.section + 1}"
-        return RunInterrupted(f"stopped by {name} {at} (t = {sim.time:.6g}); checkpoint {self.last_written} written: continue with "
+        return RunInterrupted(f"stopped by {name} {at} (t = {sim.state.time:.6g}); checkpoint {self.last_written} written: continue with "
                               f"'{continue_command(sim)}'", signum)
 
     # -- writing ---------------------------------------------------------------------------------
@@ -227,7 +227,7 @@ class Checkpoints:
                     raise OutputWriteError(f"writing the checkpoint {path} failed ({exc.strerror or exc}); the previous "
                                            "checkpoints are left as they were") from None
                 self._prune((section, step))
-                log.info("checkpoint %s (t = %.6g; %.1f MB in %.2f s)", path, sim.time, path.stat().st_size / 1e6, time.perf_counter() - t0)
+                log.info("checkpoint %s (t = %.6g; %.1f MB in %.2f s)", path, sim.state.time, path.stat().st_size / 1e6, time.perf_counter() - t0)
             self.last_written = self.folder / checkpoint_name(self.stem, section, step)
             return path
         finally:
@@ -291,8 +291,8 @@ class Checkpoints:
                 else:
                     kinds[name] = "point"
                     point(key, arr)
-        if sim.acceleration is not None:
-            point("acceleration", sim.acceleration)
+        if sim.state.acceleration is not None:
+            point("acceleration", sim.state.acceleration)
         contact = None
         c = sim.contact
         if c is not None:
@@ -312,10 +312,10 @@ class Checkpoints:
             "step": int(step),
             "sections": len(sim.deck.solvers),
             "dt": self.dt if step > 0 else None,
-            "time": sim.time,
-            "time_prev": sim.time_prev,
-            "time_step": sim.time_step,
-            "nonlinear_iterations": int(sim.nonlinear_iterations),
+            "time": sim.state.time,
+            "time_prev": sim.state.time_prev,
+            "time_step": sim.state.time_step,
+            "nonlinear_iterations": int(sim.state.nonlinear_iterations),
             "fields": kinds,
             "two_step": sorted(nm for nm in kinds if store.specs[nm].temporal is Temporal.TWO_STEP),
             "writers": [{"section": w.entry.section, "count": int(w.count), "frames": int(w.frames)} for w in sim.outputs.writers],
@@ -408,11 +408,11 @@ class Checkpoints:
                         keys = _bond_index(sim, data["bond_keys"])
                     target[...] = data[key][keys]
         if "acceleration" in data:
-            sim.acceleration = np.zeros((sim.num_local, 3))
-            point("acceleration", sim.acceleration)
-        sim.time, sim.time_prev = meta["time"], meta["time_prev"]
+            sim.state.acceleration = np.zeros((sim.num_local, 3))
+            point("acceleration", sim.state.acceleration)
+        sim.state.time, sim.state.time_prev = meta["time"], meta["time_prev"]
         sim.set_time_step(meta["time_step"])
-        sim.nonlinear_iterations = meta["nonlinear_iterations"]
+        sim.state.nonlinear_iterations = meta["nonlinear_iterations"]
         if not same:
             sim.exchange_halo_fields()
         c = sim.contact
@@ -427,7 +427,7 @@ class Checkpoints:
                 saved = y.copy()
                 y[:n] = data["contact/y_build"][local[:n]]
                 c.pairs = None
-                c._build(c._current_state(sim.time))
+                c._build(c._current_state(sim.state.time))
                 np.copyto(y, saved)
             c.capacity = int(meta["contact"]["capacity"])
             c.stats = dict(meta["contact"]["stats"])

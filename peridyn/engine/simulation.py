@@ -20,6 +20,7 @@ import numpy as np
 from ..core.errors import InputError, raise_collected
 from ..core.fields import FieldSpec, FieldStore, Length, Relation
 from ..core.interfaces import BlockView
+from ..core.state import SolverState
 from ..deck.model import Deck, ModelEntry
 from ..geometry.influence import InfluenceFunction
 from ..kernels import select_backend
@@ -67,17 +68,9 @@ class Simulation:
         #: False for ``peridyn check``: set-up creates no file (no Interfaces.e)
         self.write_files = write_files
         self.progress = progress
-        self.time = 0.0
-        self.time_prev = 0.0
-        self.delta_u: np.ndarray | None = None
+        #: what the solver sections write and hand on to the sections after them (time, acceleration, increments)
+        self.state = SolverState()
         self.bond_force_vector: np.ndarray | None = None  #: (num_bonds, 3) vector force states (non-ordinary materials only)
-        self.nonlinear_iterations = 0
-        self.time_step = 0.0
-        #: (num_local, 3) acceleration of the last dynamic step, kept across solver sections (None before one)
-        self.acceleration: np.ndarray | None = None
-        self.delta_p: np.ndarray | None = None  #: (num_local,) fluid pressure increment of the coupled solver
-        #: what solver sections share (the implicit tangents' sparsity and storage, by kind)
-        self.solver_cache: dict[str, Any] = {}
         self.contact = None
         #: the explicit step's arrays where this simulation holds them (conditions, forces)
         self.host = HostPlacement(self)
@@ -473,11 +466,11 @@ class Simulation:
 
     def set_time_step(self, dt: float) -> None:
         """The solver's time step (or load-step increment), for rate-form materials (T)."""
-        self.time_step = float(dt)
+        self.state.time_step = float(dt)
         for blk in self.blocks:
-            blk.view.time_step = self.time_step
+            blk.view.time_step = self.state.time_step
             if blk.fused_view is not None:
-                blk.fused_view.time_step = self.time_step
+                blk.fused_view.time_step = self.state.time_step
 
     def prescribe(self, points: np.ndarray, component: int) -> None:
         """Mark displacement ``component`` of the local ``points`` as prescribed (a condition

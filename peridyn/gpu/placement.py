@@ -30,9 +30,9 @@ class DevicePlacement:
         self.model = DeviceModel(sim, backend)
         self.fields = self.model.fields
         self.no_vectors = backend.zeros((0, 3))
-        if sim.acceleration is None:
-            sim.acceleration = np.zeros((sim.num_local, 3))
-        self.acceleration = backend.asarray(sim.acceleration)
+        if sim.state.acceleration is None:
+            sim.state.acceleration = np.zeros((sim.num_local, 3))
+        self.acceleration = backend.asarray(sim.state.acceleration)
         self._contact = None
         if sim.contact is not None:
             from .contact import DeviceContact
@@ -82,7 +82,7 @@ class DevicePlacement:
         state into the simulation's host arrays."""
         self.fields.download(names)
         if names is None:
-            self.acceleration.copy_to_host(self.sim.acceleration)
+            self.acceleration.copy_to_host(self.sim.state.acceleration)
             if self._contact is not None:
                 self._contact.to_host()
 

@@ -33,7 +33,7 @@ import numpy as np
 from pydantic import Field
 
 from ..core.discretization import Discretization
-from ..core.interfaces import DiscretizationReader
+from ..core.discretization import DiscretizationReader
 from ..core.params import ModelParams
 from ..core.errors import InputError, is_file, missing_file
 from .nodesets import find_input_file

@@ -38,7 +38,7 @@ from pydantic import Field, field_validator, model_validator
 
 from ..core.discretization import Discretization
 from ..core.errors import InputError, is_file, missing_file
-from ..core.interfaces import DiscretizationReader
+from ..core.discretization import DiscretizationReader
 from ..core.params import ModelParams, ParamKeyError
 from .element_geometry import CORNERS, bad_elements, element_centroids_and_volumes
 from .geo_mesh import mesh_geo

@@ -43,7 +43,7 @@ from numba import njit, prange
 from pydantic import Field, model_validator
 
 from ..core.discretization import Discretization
-from ..core.interfaces import DiscretizationReader
+from ..core.discretization import DiscretizationReader
 from ..core.params import ModelParams
 from ..core.errors import InputError
 

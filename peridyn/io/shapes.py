@@ -46,7 +46,7 @@ from pydantic import Field, ValidationInfo, field_validator, model_validator
 
 from ..core.discretization import Discretization
 from ..core.errors import InputError
-from ..core.interfaces import DiscretizationReader
+from ..core.discretization import DiscretizationReader
 from ..core.params import ModelParams
 from ..deck.model import tidy
 

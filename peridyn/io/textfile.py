@@ -22,7 +22,7 @@ import numpy as np
 from pydantic import Field
 
 from ..core.discretization import Discretization
-from ..core.interfaces import DiscretizationReader
+from ..core.discretization import DiscretizationReader
 from ..core.params import ModelParams
 from ..core.errors import InputError, missing_file
 from .nodesets import find_input_file

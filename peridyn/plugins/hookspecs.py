@@ -53,7 +53,7 @@ def peridyn_solvers() -> ModelList:
 @hookspec
 def peridyn_discretizations() -> ModelList:
     """Discretizations: the ``Discretization > Type`` value (e.g. ``"Exodus"``) and a path to a
-    :class:`peridyn.core.interfaces.DiscretizationReader` subclass."""
+    :class:`peridyn.core.discretization.DiscretizationReader` subclass."""
 
 
 @hookspec

@@ -68,7 +68,7 @@ def test_verlet_converges_at_second_order_in_time():
         t_end = 2e-4
         section = VerletSection.model_validate({"Initial Time": 0.0, "Final Time": t_end * (1 + 1e-12), "Verlet": {"Fixed dt": dt}})
         Verlet(section).run(sim)
-        assert abs(sim.time - t_end) < 1e-9 * t_end
+        assert abs(sim.state.time - t_end) < 1e-9 * t_end
         return sim.fields["Displacement"].copy()
 
     reference = run(2e-4 / 1024)

@@ -178,7 +178,7 @@ def test_point_without_neighbors_moves_freely(tmp_path, caplog):
     assert any("no neighbors" in r.getMessage() for r in caplog.records)
     stats = verlet(sim, steps=100, **{"Safety Factor": 0.7})
     lonely = np.nonzero(sim.gid == 4)[0][0]
-    np.testing.assert_allclose(sim.fields["Displacement"][lonely], [0.0, 2.0 * sim.time, 0.0], rtol=1e-12)
+    np.testing.assert_allclose(sim.fields["Displacement"][lonely], [0.0, 2.0 * sim.state.time, 0.0], rtol=1e-12)
     assert np.all(sim.fields["Force_Density"][lonely] == 0.0)
 
 

@@ -163,8 +163,8 @@ class Verlet(Solver):
         on = "" if sim.device != "gpu" else " on the GPU"
         log.info("%s: Verlet%s, dt = %.6g (critical estimate %.6g), %d steps from t = %.6g to %.6g", self.section, on, dt, dt_crit,
                  nsteps, t0, t0 + nsteps * dt)
-        if sim.acceleration is None:
-            sim.acceleration = np.zeros((n, 3))
+        if sim.state.acceleration is None:
+            sim.state.acceleration = np.zeros((n, 3))
         sim.set_time_step(dt)
         restart = sim.restart
         # a run continued from a checkpoint: (the last step done, the energy monitor) there
@@ -180,7 +180,7 @@ class Verlet(Solver):
         contact = where.contact
         if resumed is None:
             # step 0
-            sim.time_prev = sim.time = t = t0
+            sim.state.time_prev = sim.state.time = t = t0
             where.load_data(t)
             where.evaluate_forces()
             if contact is not None:
@@ -217,7 +217,7 @@ class Verlet(Solver):
             for step in range(first, nsteps + 1):
                 t_prev = t
                 t = t0 + float(step) * dt
-                sim.time_prev, sim.time = t_prev, t
+                sim.state.time_prev, sim.state.time = t_prev, t
                 sim.begin_step(t)
                 if contact is not None:
                     contact.begin_step(step)

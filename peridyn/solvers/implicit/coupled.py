@@ -302,7 +302,7 @@ class CoupledQuasiStaticRun:
         self.residuals.append(history)
         n = self.n
         while res > tol and it <= q.maximum_solver_iterations:
-            sim.nonlinear_iterations += 1
+            sim.state.nonlinear_iterations += 1
             log.debug("%s: load step %d, iteration %d: residual %.6g (tolerance %.6g)", self.section, step, it, res, tol)
             if it == 1 and step > 1 and self.heuristics:
                 lhs = predictor * self.dt
@@ -369,9 +369,9 @@ class CoupledQuasiStaticRun:
         self.v[:] = 0.0
         self.pV[:] = 0.0
         t_cur = t_prev = times[0]
-        sim.time_prev = sim.time = t_cur
-        saved = sim.delta_u, sim.delta_p
-        sim.delta_u, sim.delta_p = self.du, self.dp
+        sim.state.time_prev = sim.state.time = t_cur
+        saved = sim.state.delta_u, sim.state.delta_p
+        sim.state.delta_u, sim.state.delta_p = self.du, self.dp
         try:
             sim.apply_kinematic(t_cur, t_prev)
             sim.apply_body_forces(t_cur)
@@ -392,7 +392,7 @@ class CoupledQuasiStaticRun:
                 t_cur = times[step]
                 self.dt = t_cur - t_prev
                 sim.set_time_step(self.dt)
-                sim.time_prev, sim.time = t_prev, t_cur
+                sim.state.time_prev, sim.state.time = t_prev, t_cur
                 self.du[:] = 0.0
                 self.dp[:] = 0.0
                 sim.apply_kinematic(t_cur, t_prev)
@@ -434,7 +434,7 @@ class CoupledQuasiStaticRun:
                 completed += 1
                 step += 1
         finally:
-            sim.delta_u, sim.delta_p = saved
+            sim.state.delta_u, sim.state.delta_p = saved
         lin = self.linear
         solver_stats(
             sim, self.section, "QuasiStatic", completed, _time.perf_counter() - wall0, self.problem,

@@ -496,7 +496,7 @@ class ImplicitDiffusionRun:
         wall0 = _time.perf_counter()
         times = load_times(self.p, q, path=(self.section, "ImplicitDiffusion"), file=sim.deck.file)
         t_cur = t_prev = times[0]
-        sim.time_prev = sim.time = t_cur
+        sim.state.time_prev = sim.state.time = t_cur
         sim.apply_kinematic(t_cur, t_prev)
         sim.apply_body_forces(t_cur)
         for c in sim.conditions:  # Peridigm applies the initial conditions again, after the BCs
@@ -509,7 +509,7 @@ class ImplicitDiffusionRun:
         for step in range(1, len(times)):
             t_prev = t_cur
             t_cur = times[step]
-            sim.time_prev, sim.time = t_prev, t_cur
+            sim.state.time_prev, sim.state.time = t_prev, t_cur
             sim.set_time_step(t_cur - t_prev)
             sim.apply_kinematic(t_cur, t_prev)
             sim.apply_body_forces(t_cur)
@@ -521,7 +521,7 @@ class ImplicitDiffusionRun:
             it = 1
             failure = ""
             while res > tol and it <= q.maximum_solver_iterations:
-                sim.nonlinear_iterations += 1
+                sim.state.nonlinear_iterations += 1
                 log.debug("%s: load step %d, iteration %d: residual %.6g (tolerance %.6g)", self.section, step, it, res, tol)
                 A = self.matrix
                 A.assemble(sim)
@@ -569,7 +569,7 @@ class ImplicitDiffusionRun:
             "tangent_nonzeros": self.matrix.nnz,
             "tangent_assemblies": self.matrix.assemblies,
             "tangent_assembly_time": self.matrix.assembly_time,
-            "nonlinear_iterations": sim.nonlinear_iterations,
+            "nonlinear_iterations": sim.state.nonlinear_iterations,
             "linear_solver": lin.chosen,
             "linear_iterations": lin.iterations,
             "linear_solves": lin.solves,

@@ -101,9 +101,9 @@ class Implicit(Solver):
         f = sim.fields
         x, u, y, v = f["Model_Coordinates"], f["Displacement"], f["Coordinates"], f["Velocity"]
         rho = sim.density_per_point()[:n]
-        a = sim.acceleration
+        a = sim.state.acceleration
         if a is None:
-            a = sim.acceleration = np.zeros((sim.num_local, 3))
+            a = sim.state.acceleration = np.zeros((sim.num_local, 3))
         dt = ip.fixed_dt
         beta, gamma = ip.beta, ip.gamma
         dt2 = dt * dt
@@ -125,7 +125,7 @@ class Implicit(Solver):
         jscale = ((-beta) * dt) * dt
 
         t_cur = t_prev = t0
-        sim.time_prev = sim.time = t_cur
+        sim.state.time_prev = sim.state.time = t_cur
         sim.apply_kinematic(t_cur, t_prev)
         sim.apply_body_forces(t_cur)
         sim.write_output(t_cur)
@@ -158,7 +158,7 @@ class Implicit(Solver):
             res, r = residual()
             it = 0
             while res > ip.absolute_tolerance and it <= ip.maximum_solver_iterations:
-                sim.nonlinear_iterations += 1
+                sim.state.nonlinear_iterations += 1
                 log.debug("%s: step %d, iteration %d: residual %.6g", self.section, step + 1, it, res)
                 progress.note(iteration=it, residual=res, tolerance=ip.absolute_tolerance)
                 prob.assemble_tangent(p.probe_length)
@@ -180,7 +180,7 @@ class Implicit(Solver):
                 log.warning("%s: step %d (t = %.6g) ended with residual %.4g above the tolerance %.4g", self.section, step + 1, t0 + (step + 1) * dt, res, ip.absolute_tolerance)
             t_prev = t_cur
             t_cur = t0 + (step + 1) * dt
-            sim.time_prev, sim.time = t_prev, t_cur
+            sim.state.time_prev, sim.state.time = t_prev, t_cur
             sim.write_output(t_cur)
             sim.advance()
             log.debug("%s: step %d of %d (t = %.6g): residual %.4g (tolerance %.4g) after %d iteration(s)", self.section, step + 1, nsteps,

@@ -433,17 +433,17 @@ class NOXRun:
         try:
             while status == "unconverged":
                 # one NOX solver->step() per pass, counted as Peridigm counts it
-                self.sim.nonlinear_iterations += 1
+                self.sim.state.nonlinear_iterations += 1
                 status = solver.step()
                 log.debug("%s: load step %d, NOX step %d: ||F|| = %.6g (tolerance %.6g)", self.section, step_index, solver.niter,
                           float(self._norm(solver.F)), tol)
         except TrustRegionError as e:
-            raise NOXConvergenceError(f"{self.section}: load step {step_index} (t = {self.sim.time:.6g}): NOX trust region: {e}") from None
+            raise NOXConvergenceError(f"{self.section}: load step {step_index} (t = {self.sim.state.time:.6g}): NOX trust region: {e}") from None
         c = solver.counters
         self.trust_region_counters = [a + b for a, b in zip(self.trust_region_counters, (c.newton_steps, c.cauchy_steps, c.dogleg_steps, c.inner_iterations, c.recovery_steps))]
         if status != "converged":
             raise NOXConvergenceError(
-                f"{self.section}: load step {step_index} (t = {self.sim.time:.6g}) did not converge in {q.max_solver_iterations} NOX steps "
+                f"{self.section}: load step {step_index} (t = {self.sim.state.time:.6g}) did not converge in {q.max_solver_iterations} NOX steps "
                 f"(||F|| = {float(self._norm(solver.F)):.4g}, tolerance {tol:.4g}); Peridigm aborts here too"
             )
         self.set_state(solver.s)  # y and v as at the last residual evaluation
@@ -467,7 +467,7 @@ class NOXRun:
         while True:
             # one NOX solver->step(): Peridigm counts every call; the first one also checks the
             # initial guess and returns at once when it already converged
-            self.sim.nonlinear_iterations += 1
+            self.sim.state.nonlinear_iterations += 1
             if status != "unconverged":
                 break
             nF = float(self._norm(F))
@@ -488,7 +488,7 @@ class NOXRun:
                 break
         if status != "converged":
             raise NOXConvergenceError(
-                f"{self.section}: load step {step_index} (t = {self.sim.time:.6g}) did not converge in {q.max_solver_iterations} NOX steps "
+                f"{self.section}: load step {step_index} (t = {self.sim.state.time:.6g}) did not converge in {q.max_solver_iterations} NOX steps "
                 f"(||F|| = {float(self._norm(F)):.4g}, tolerance {tol:.4g}); Peridigm aborts here too"
             )
         self.set_state(s)  # y and v as at the last residual evaluation
@@ -517,7 +517,7 @@ class NOXRun:
         if not p.initialize_predictor:
             self.v[:] = 0.0
         t_cur = t_prev = times[0]
-        sim.time_prev = sim.time = t_cur
+        sim.state.time_prev = sim.state.time = t_cur
         sim.apply_kinematic(t_cur, t_prev)
         sim.apply_body_forces(t_cur)
         sim.write_output(t_cur)
@@ -526,8 +526,8 @@ class NOXRun:
             self.section, q.direction.method, ", Jacobian-free" if p.matrix_free else "", len(times) - 1, times[0], times[-1], 3 * sim.num_global,
         )
         du = np.zeros((sim.num_local, 3))
-        saved = sim.delta_u
-        sim.delta_u = du
+        saved = sim.state.delta_u
+        sim.state.delta_u = du
         steps = 0
         self.progress = Progress(len(times) - 1, self.section, enabled=sim.progress, unit="load step")
         try:
@@ -535,7 +535,7 @@ class NOXRun:
                 t_prev, t_cur = t_cur, times[k]
                 self.dt = t_cur - t_prev
                 sim.set_time_step(self.dt)  # rate-form materials integrate over the load step
-                sim.time_prev, sim.time = t_prev, t_cur
+                sim.state.time_prev, sim.state.time = t_prev, t_cur
                 du[:] = 0.0
                 guess = self.v[:n] * self.dt
                 guess[prob.fixed_local] = 0.0
@@ -567,7 +567,7 @@ class NOXRun:
                 self.progress.update(k, residual=nF, tolerance=tol)
         finally:
             self.progress.close()
-            sim.delta_u = saved
+            sim.state.delta_u = saved
             extra = {}
             if q.nonlinear_solver == "Inexact Trust Region Based":
                 extra["trust_region"] = dict(zip(("newton_steps", "cauchy_steps", "dogleg_steps", "inner_iterations", "recovery_steps"), self.trust_region_counters))

@@ -87,7 +87,7 @@ class ImplicitProblem:
         self.comm = sim.comm if sim.comm.size > 1 else None  # None: the serial arithmetic
         n = sim.num_owned
         self.n = n
-        cache = sim.solver_cache.setdefault("implicit tangents", {})
+        cache = sim.state.solver_cache.setdefault("implicit tangents", {})
         if tangent_kind not in cache:
             cache[tangent_kind] = TangentMatrix(sim, tangent_kind)
         self.tangent: TangentMatrix = cache[tangent_kind]
@@ -199,7 +199,7 @@ def solver_stats(sim, section: str, method: str, steps: int, wall: float, proble
         "tangent_assemblies": T.assemblies,
         "tangent_assembly_time": T.assembly_time,
         "tangent_allocation_time": T.allocation_time,
-        "nonlinear_iterations": sim.nonlinear_iterations,
+        "nonlinear_iterations": sim.state.nonlinear_iterations,
     }
     st.update(extra)
     sim.stats.setdefault("solvers", []).append(st)

@@ -280,7 +280,7 @@ class QuasiStaticRun:
         rho0, r0 = prob.qs_residual()
         if not math.isfinite(rho0):
             raise InstabilityError(
-                f"{self.section}: load step {self.step} (t = {self.sim.time:.6g}): the residual is not finite; the load step is too large or the model is unstable"
+                f"{self.section}: load step {self.step} (t = {self.sim.state.time:.6g}): the residual is not finite; the load step is too large or the model is unstable"
             )
         if rho0 == 0.0:
             return 0.0
@@ -344,7 +344,7 @@ class QuasiStaticRun:
         history = [res]
         self.residuals.append(history)
         while res > tol and it <= q.maximum_solver_iterations:
-            sim.nonlinear_iterations += 1
+            sim.state.nonlinear_iterations += 1
             log.debug("%s: load step %d, iteration %d: residual %.6g (tolerance %.6g)", self.section, step, it, res, tol)
             self.progress.note(iteration=it, residual=res, tolerance=tol)
             if it == 1 and (step > 1 or use_predictor_first) and self.heuristics:
@@ -398,7 +398,7 @@ class QuasiStaticRun:
         predictor = self.v[:n].copy() if p.initialize_predictor else np.zeros((n, 3))
         self.v[:] = 0.0
         t_cur = t_prev = times[0]
-        sim.time_prev = sim.time = t_cur
+        sim.state.time_prev = sim.state.time = t_cur
         sim.apply_kinematic(t_cur, t_prev)
         sim.apply_body_forces(t_cur)
         sim.write_output(t_cur)
@@ -415,8 +415,8 @@ class QuasiStaticRun:
         retry = False
         failed_qs = False
         completed = 0
-        saved_delta_u = sim.delta_u
-        sim.delta_u = self.du
+        saved_delta_u = sim.state.delta_u
+        sim.state.delta_u = self.du
         try:
             step = 1
             while step < len(times):
@@ -426,7 +426,7 @@ class QuasiStaticRun:
                 t_cur = times[step]
                 self.dt = t_cur - t_prev
                 sim.set_time_step(self.dt)  # rate-form materials integrate over the load step
-                sim.time_prev, sim.time = t_prev, t_cur
+                sim.state.time_prev, sim.state.time = t_prev, t_cur
                 self.du[:] = 0.0
                 sim.apply_kinematic(t_cur, t_prev)
                 sim.apply_body_forces(t_cur)
@@ -482,7 +482,7 @@ class QuasiStaticRun:
                 self.progress.update(step, residual=res, tolerance=tol)
                 step += 1
         finally:
-            sim.delta_u = saved_delta_u
+            sim.state.delta_u = saved_delta_u
             self.progress.close()
         lin = self.linear
         solver_stats(

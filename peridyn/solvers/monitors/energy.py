@@ -169,7 +169,7 @@ class EnergyMonitor:
         return all(type(blk.material).stored_energy_density is not Material.stored_energy_density for blk in sim.blocks)
 
     def _shadow_local(self) -> float:
-        a = self.sim.acceleration
+        a = self.sim.state.acceleration
         if a is None:
             return 0.0
         return self._shadow_of(a)
@@ -357,7 +357,7 @@ class EnergyMonitor:
         ratio = sim.comm.allreduce_sum(local) / (self.kinetic0 + self.stored0 + self.floor)
         self.resolution = max(self.resolution, ratio)
         if ratio > self.coarse:
-            self._fail_resolution(0, sim.time, ratio)
+            self._fail_resolution(0, sim.state.time, ratio)
 
     def _check_fast_growth(self, step: int, time: float) -> None:
         """Without an energy account: kinetic energy 1000x larger at each of 3 consecutive steps
@@ -395,7 +395,7 @@ class EnergyMonitor:
 
     def _fastest_acceleration(self) -> str:
         """The point of largest acceleration over all ranks (where the step is least resolved)."""
-        return self._locate(self.sim.acceleration)
+        return self._locate(self.sim.state.acceleration)
 
     def _advice(self) -> str:
         self._step[0].to_host()  # the contact's state of a GPU run

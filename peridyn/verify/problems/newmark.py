@@ -98,8 +98,8 @@ class NewmarkEnergy(Problem):
         start = sim.kinetic_energy()  # no displacement yet: nothing is stored
         Implicit(section).run(sim)
         stats = sim.stats["solvers"][-1]
-        if int(stats["steps"]) != steps or not math.isclose(sim.time, self.T_END, rel_tol=1e-9):
-            raise RuntimeError(f"the Implicit solver ran {stats['steps']} steps to t = {sim.time} (expected {steps} to {self.T_END})")
+        if int(stats["steps"]) != steps or not math.isclose(sim.state.time, self.T_END, rel_tol=1e-9):
+            raise RuntimeError(f"the Implicit solver ran {stats['steps']} steps to t = {sim.state.time} (expected {steps} to {self.T_END})")
         kinetic, stored = sim.kinetic_energy(), sim.stored_energy()
         balance = abs(kinetic + stored - start) / max(start, abs(kinetic), abs(stored), 1e-300)
         return sim.fields["Displacement"].copy(), stats, balance

@@ -81,3 +81,37 @@ def test_the_engine_provides_every_declared_name(damage):
     missing = sorted(name for name in declared() if not hasattr(sim, name))
     assert not missing, f"declared on the Simulation contract but absent from the engine's: {missing}"
     assert Simulation.writable <= declared()
+
+
+def state_writes() -> list[tuple[str, int, str]]:
+    """(file, line, name) of every assignment to ``sim.state.NAME`` (or ``self.sim.state.NAME``)."""
+    found = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        rel = str(path.relative_to(PACKAGE.parent))
+        for node in ast.walk(ast.parse(path.read_text())):
+            if (isinstance(node, ast.Attribute) and isinstance(node.ctx, (ast.Store, ast.Del))
+                    and isinstance(node.value, ast.Attribute) and node.value.attr == "state" and is_simulation(node.value.value)):
+                found.append((rel, node.lineno, node.attr))
+    return found
+
+
+def test_only_solvers_and_the_engine_write_the_solver_state():
+    """The solver state (time, step, acceleration, increments, iterations) is written by the
+    solvers, the placements of a step and the engine (set-up, checkpoints), never by a model,
+    compute, condition or output."""
+    from peridyn.core.state import SolverState
+
+    writes = state_writes()
+    assert len(writes) > 15  # the scan sees the solvers' writes
+    allowed = ("peridyn/solvers/", "peridyn/engine/", "peridyn/gpu/placement.py")
+    bad = [f"{f}:{line}: state.{name}" for f, line, name in writes if not f.startswith(allowed)]
+    assert not bad, "the solver state written outside the solvers and the engine:\n" + "\n".join(bad)
+    fields = set(SolverState.__dataclass_fields__)
+    unknown = [f"{f}:{line}: state.{name}" for f, line, name in writes if name not in fields]
+    assert not unknown, "members of the solver state that SolverState does not declare:\n" + "\n".join(unknown)
+
+
+def test_the_contract_types_every_member():
+    """No member of the Simulation contract is typed ``Any`` (a dict of run statistics may hold anything)."""
+    loose = [n for n, a in Simulation.__annotations__.items() if str(a) in ("Any", "Any | None") or str(a).startswith("list[Any")]
+    assert not loose, f"members of the Simulation contract typed Any (declare a protocol in core/services.py): {loose}"

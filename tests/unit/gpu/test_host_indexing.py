@@ -15,7 +15,7 @@ import yaml
 
 pytest.importorskip("numba.cuda")
 
-from ..solvers.test_verlet_gpu import CASES  # noqa: E402
+from ..solvers.explicit.test_verlet_gpu import CASES  # noqa: E402
 
 SIMULATOR = pytest.importorskip("numba.cuda.simulator.cudadrv.devicearray")
 

@@ -1,5 +1,5 @@
 """NLMech's materials on the GPU (``peridyn run --device gpu``) against the same deck on the CPU,
-as the built-in materials in tests/unit/solvers/test_verlet_gpu.py, stretched far past the
+as the built-in materials in tests/unit/solvers/explicit/test_verlet_gpu.py, stretched far past the
 inflection stretch by the initial velocity: ``Regularized Nonlinear Bond`` reversible (with its
 Softened_Bond_Fraction output) and with irreversible bond fracture (its two-step Bond_Fracture
 field), and ``Nonlocal Double Well State`` (its Dilatation, a precompute field)."""
@@ -11,7 +11,7 @@ import pytest
 pytest.importorskip("numba.cuda")
 pytest.importorskip("netCDF4")
 
-from ..solvers.test_verlet_gpu import RTOL, frames, lattice_deck, quantity_scale, run  # noqa: E402
+from ..solvers.explicit.test_verlet_gpu import RTOL, frames, lattice_deck, quantity_scale, run  # noqa: E402
 
 RNP = {"Material Model": "Regularized Nonlinear Bond", "Density": 7800.0, "Bulk Modulus": 130.0e9, "Gc": 5.0}
 DOUBLE_WELL = {"Material Model": "Nonlocal Double Well State", "Density": 7800.0, "Bulk Modulus": 160.0e9, "Shear Modulus": 70.0e9, "Gc": 5.0}

@@ -14,7 +14,7 @@ import pytest
 
 pytest.importorskip("numba.cuda")
 
-from ..solvers.test_verlet_gpu import CASES, RTOL, contact_deck, frames, lattice_deck, quantity_scale, run, STEEL, LOADS  # noqa: E402
+from ..solvers.explicit.test_verlet_gpu import CASES, RTOL, contact_deck, frames, lattice_deck, quantity_scale, run, STEEL, LOADS  # noqa: E402
 
 
 def with_restart(deck: dict, frequency: int) -> dict:

@@ -11,7 +11,7 @@ import yaml
 
 pytest.importorskip("numba.cuda")
 
-from ..solvers.test_verlet_gpu import STEEL, lattice_deck, run  # noqa: E402
+from ..solvers.explicit.test_verlet_gpu import STEEL, lattice_deck, run  # noqa: E402
 
 
 def check(folder, deck, *extra):

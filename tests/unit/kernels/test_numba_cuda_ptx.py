@@ -14,7 +14,7 @@ import pytest
 
 pytest.importorskip("numba.cuda")
 
-from ..solvers.test_verlet_gpu import CASES  # noqa: E402
+from ..solvers.explicit.test_verlet_gpu import CASES  # noqa: E402
 
 SCRIPT = textwrap.dedent(
     r'''

@@ -91,7 +91,7 @@ def test_nox_option_trees_are_accepted(h):
     }
     sim = h.build(bar_deck(h, solver))
     run_sections(sim)
-    assert sim.nonlinear_iterations >= 1
+    assert sim.state.nonlinear_iterations >= 1
 
 
 def test_reactions_balance_and_force_output(h):
@@ -198,7 +198,7 @@ def test_switch_to_verlet_after_too_many_reductions(h):
     methods = [st["method"] for st in sim.stats["solvers"]]
     assert methods == ["QuasiStatic", "Verlet"]
     assert sim.stats["solvers"][1]["steps"] == 20
-    assert sim.time == pytest.approx(2.0e-6)
+    assert sim.state.time == pytest.approx(2.0e-6)
 
 
 NEWTON_MF = {"Method": "Newton", "Newton": {"Linear Solver": {"Jacobian Operator": "Matrix-Free", "Preconditioner": "None"}}}
@@ -232,7 +232,7 @@ def test_nox_variants_reach_the_quasistatic_equilibrium(h, preconditioner, direc
     u, u_ref = sim.fields["Displacement"], ref.fields["Displacement"]
     np.testing.assert_allclose(u, u_ref, rtol=0, atol=1e-7 * np.abs(u_ref).max())
     np.testing.assert_allclose(sim.fields["Velocity"], ref.fields["Velocity"], rtol=0, atol=1e-7 * np.abs(ref.fields["Velocity"]).max())
-    assert sim.nonlinear_iterations >= 2
+    assert sim.state.nonlinear_iterations >= 2
 
 
 def test_nox_counts_one_step_when_the_initial_guess_has_converged(h):
@@ -241,7 +241,7 @@ def test_nox_counts_one_step_when_the_initial_guess_has_converged(h):
     solver = {"Initial Time": 0.0, "Final Time": 1.0, "NOXQuasiStatic": {"Number of Load Steps": 3, "Absolute Tolerance": 1.0, "Direction": {"Method": "Newton"}}}
     sim = h.build(bar_deck(h, solver, pull=0.0))
     run_sections(sim)
-    assert sim.nonlinear_iterations == 3
+    assert sim.state.nonlinear_iterations == 3
 
 
 def test_nox_failure_stops_the_run(h):
@@ -266,4 +266,4 @@ def test_matrix_free_without_peridigm_preconditioner_warns_of_the_full_tangent(h
     with caplog.at_level("WARNING", logger="peridyn"):
         run_sections(sim)
     assert any("assembles the full tangent" in r.getMessage() for r in caplog.records) == warned
-    assert list(sim.solver_cache["implicit tangents"]) == [tangent]
+    assert list(sim.state.solver_cache["implicit tangents"]) == [tangent]

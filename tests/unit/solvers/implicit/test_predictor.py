@@ -23,7 +23,7 @@ def run_pair(sim):
     entries = sim.deck.solvers
     entries[0].cls(entries[0].params, section=entries[0].section).run(sim)
     v1 = sim.fields["Velocity"].copy()
-    it1 = sim.nonlinear_iterations
+    it1 = sim.state.nonlinear_iterations
     seen = []
     write = sim.write_output
 
@@ -34,7 +34,7 @@ def run_pair(sim):
 
     sim.write_output = spy
     entries[1].cls(entries[1].params, section=entries[1].section).run(sim)
-    return v1, seen[0], it1, sim.nonlinear_iterations - it1
+    return v1, seen[0], it1, sim.state.nonlinear_iterations - it1
 
 
 NOX = {"Number of Load Steps": 1, "Relative Tolerance": 1e-7, "Direction": {"Method": "Newton"}}
