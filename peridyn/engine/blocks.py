@@ -140,3 +140,16 @@ def fusion_groups(sim: Any) -> list[list[Block]]:
         else:
             groups.append([blk])
     return groups
+
+
+def block_id_from_name(name: str, names_by_id: dict[int, str]) -> int | None:
+    """Peridigm: the block id is the integer after the last '_' of the name; a mesh block whose
+    own name matches is found by name first."""
+    for bid, mesh_name in names_by_id.items():
+        if mesh_name == name:
+            return bid
+    tail = name.rsplit("_", 1)[-1]
+    try:
+        return int(tail)
+    except ValueError:
+        return None

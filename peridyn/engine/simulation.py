@@ -11,7 +11,6 @@ from __future__ import annotations
 import logging
 import math
 import time as _time
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -21,32 +20,33 @@ from ..core.errors import InputError, raise_collected
 from ..core.fields import FieldSpec, FieldStore, Length, Relation
 from ..core.interfaces import BlockView
 from ..core.state import SolverState
+from ..core.traversal import Backend
 from ..deck.model import Deck, ModelEntry
 from ..geometry.influence import InfluenceFunction
 from ..kernels import select_backend
 from ..parallel.comm import SerialComm
 from . import checks, limits
-from .blocks import Block, plan_fusion
+from .blocks import Block, block_id_from_name, plan_fusion
+from .devices import resolve_device
 from .conditions import create_conditions
 from .placement import HostPlacement
 from ..kernels.scatter import apply_body_forces, apply_kinematic
 from .kernels import (
     bond_length_kernel,
-    critical_time_step_kernel,
     foreign_neighbor_kernel,
 )
-from ..kernels.gathers import gather_scalar_force_kernel, gather_vector_force_kernel
+from .critical_step import critical_time_steps
+from .forces import evaluate_forces
 
 log = logging.getLogger("peridyn.engine")
 
 
 class Simulation:
-    """A model built from a deck, ready for solvers.
-
-    Attributes a solver uses: ``fields`` (FieldStore), ``blocks``, ``bonds`` (NeighborList),
-    ``num_owned``, ``time``, ``comm``, ``outputs`` and the methods ``evaluate_forces``,
-    ``apply_kinematic``, ``apply_body_forces``, ``write_output``, ``critical_time_step``,
-    ``advance`` (swap N and NP1).
+    """A model built from a deck, ready for solvers: points, blocks, bonds, node sets, fields and
+    conditions (what solvers, computes and models may read is the contract
+    :class:`peridyn.core.interfaces.Simulation`); ``state`` holds what the solvers write. The run
+    services around it (output folder, locks, checkpoints, signals) are the run session's
+    (:mod:`peridyn.engine.session`); its force evaluation is :mod:`peridyn.engine.forces`.
     """
 
     def __init__(self, deck: Deck, *, comm=None, output_dir: str | Path | None = None, progress: bool = True,
@@ -60,7 +60,7 @@ class Simulation:
             #: where arrays live and bond loops run (``peridyn run --backend``, ``PERIDYN_BACKEND``); set-up runs here
             self.backend = select_backend(None if gpu_backend else backend)
             if self.device == "gpu" and write_files:  # ``peridyn check --device gpu`` needs no GPU
-                self.device_backend
+                self._device_backend = self._make_device_backend()
         except InputError as exc:
             raise exc.in_file(deck.file) from None
         self.comm = comm or SerialComm()
@@ -71,6 +71,7 @@ class Simulation:
         #: what the solver sections write and hand on to the sections after them (time, acceleration, increments)
         self.state = SolverState()
         self.bond_force_vector: np.ndarray | None = None  #: (num_bonds, 3) vector force states (non-ordinary materials only)
+        self._rho: np.ndarray | None = None
         self.contact = None
         #: the explicit step's arrays where this simulation holds them (conditions, forces)
         self.host = HostPlacement(self)
@@ -84,7 +85,7 @@ class Simulation:
         from ..deck.expressions import random_seed
 
         try:
-            with random_seed(getattr(deck, "random_seed", 0)):  # rnd() of every expression compiled in set-up
+            with random_seed(deck.random_seed):  # rnd() of every expression compiled in set-up
                 self._setup()
         except InputError as exc:  # every message names a file
             raise exc.in_file(deck.file) from None
@@ -95,15 +96,18 @@ class Simulation:
         self.timers["setup"] = _time.perf_counter() - t0
 
     @property
-    def device_backend(self) -> Any:
+    def device_backend(self) -> Backend | None:
         """The GPU backend of a "gpu" run (made when first asked for: a run that writes nothing,
         such as ``peridyn check --device gpu``, needs no GPU until it steps), else None."""
         if self._device_backend is None and self.device == "gpu":
-            from ..kernels.numba_cuda import require_gpu
-
-            require_gpu()
-            self._device_backend = select_backend(self._gpu_backend_name)
+            self._device_backend = self._make_device_backend()
         return self._device_backend
+
+    def _make_device_backend(self) -> Backend:
+        from ..kernels.numba_cuda import require_gpu
+
+        require_gpu()
+        return select_backend(self._gpu_backend_name)
 
     # ============================================================================================
     # set-up
@@ -198,7 +202,7 @@ class Simulation:
         used_ids: dict[int, str] = {}
         specs = []
         for name, entry in entries:
-            bid = _block_id_from_name(name, names_by_id)
+            bid = block_id_from_name(name, names_by_id)
             if bid is None or bid not in names_by_id:
                 available = ", ".join(names_by_id[i] for i in mesh_ids) or "none"
                 errors.append(
@@ -520,106 +524,7 @@ class Simulation:
 
     def evaluate_forces(self) -> np.ndarray:
         """Peridigm's evalModel: damage, precompute, force. Returns Force_Density (n, 3)."""
-        if self.overlap:
-            return self._evaluate_forces_overlapped()
-        parallel = self.comm.size > 1
-        if parallel:
-            self.halo.exchange(self.fields["Coordinates"])
-            if "Temperature_Change" in self.fields:
-                self.halo.exchange(self.fields["Temperature_Change"])
-            for name in self.ghost_inputs:
-                self.halo.exchange(self.fields[name])
-        for blk in self.blocks:
-            if blk.damage is not None and not blk.damage_adopted:
-                blk.damage.update(blk.view)
-        for blk in self.blocks:
-            if blk.damage_adopted:
-                blk.material.precompute_with_damage(blk.view)
-            else:
-                blk.material.precompute(blk.view)
-        if parallel:
-            for name in self.precompute_fields:
-                self.halo.exchange(self.fields[name])
-        f = self.fields["Force_Density"]
-        pending = []
-        for blk in self.blocks:
-            if not blk.group:
-                continue  # computed with its group
-            if not (blk.fused and blk.material.force_fused(blk.fused_view or blk.view, f)):
-                pending.extend(blk.group)
-        if pending:
-            scalar = any(blk.material.force_state_kind == "scalar" for blk in pending)
-            vector = any(blk.material.force_state_kind == "vector" for blk in pending)
-            if scalar and self.bond_force is None:
-                self.bond_force = np.zeros(self.bonds.num_bonds)
-            if vector and self.bond_force_vector is None:  # non-ordinary materials only
-                self.bond_force_vector = np.zeros((self.bonds.num_bonds, 3))
-            t, T = self.bond_force, self.bond_force_vector
-            for blk in pending:
-                blk.material.force_state(blk.view, T if blk.material.force_state_kind == "vector" else t)
-            nl = self.bonds
-            in_offsets, in_bonds = nl.transpose()
-            sources = nl.sources()
-            y, vol = self.fields["Coordinates"], self.fields["Volume"]
-            ranges = [(blk.start, blk.stop) for blk in pending]
-            if parallel and self.num_local > self.num_owned:
-                # reactions of this rank's bonds on ghosts go to the ghosts' owners
-                ranges.append((self.num_owned, self.num_local))
-            for lo, hi in ranges:
-                if t is not None:
-                    gather_scalar_force_kernel(lo, hi, nl.offsets, nl.neighbors, in_offsets, in_bonds, sources, y, vol, t, f)
-                else:
-                    f[lo:hi] = 0.0
-                if T is not None:
-                    gather_vector_force_kernel(lo, hi, nl.offsets, nl.neighbors, in_offsets, in_bonds, sources, vol, T, f)
-            if parallel and self.num_local > self.num_owned:
-                self.halo.reverse_sum(f)
-        return f
-
-    def _evaluate_forces_overlapped(self) -> np.ndarray:
-        """``evaluate_forces`` under MPI with fused, row-local models: each phase first computes
-        the rows without ghost neighbors while the ghosts' positions (then their precomputed
-        fields) travel, then the rest. Every row is computed exactly as without overlap."""
-        f = self.fields["Force_Density"]
-        halo = self.halo
-        if "Temperature_Change" in self.fields:
-            halo.exchange(self.fields["Temperature_Change"])
-        pending = halo.begin(self.fields["Coordinates"])
-        self._precompute_rows(interior=True)
-        halo.end(pending)
-        self._precompute_rows(interior=False)
-        pending = [halo.begin(self.fields[name]) for name in self.precompute_fields]
-        self._force_rows(f, interior=True)
-        for p in pending:
-            halo.end(p)
-        self._force_rows(f, interior=False)
-        return f
-
-    @staticmethod
-    def _rows_view(blk: "Block", interior: bool) -> BlockView | None:
-        """The part of ``blk``'s view without ghost neighbors, or the rest; None when empty."""
-        if interior:
-            return replace(blk.view, stop=blk.split) if blk.split > blk.start else None
-        return replace(blk.view, start=blk.split) if blk.stop > blk.split else None
-
-    def _precompute_rows(self, interior: bool) -> None:
-        for blk in self.blocks:
-            view = self._rows_view(blk, interior)
-            if view is None:
-                continue
-            if blk.damage_adopted:
-                blk.material.precompute_with_damage(view)
-            else:
-                if blk.damage is not None:
-                    blk.damage.update(view)
-                blk.material.precompute(view)
-
-    def _force_rows(self, f: np.ndarray, interior: bool) -> None:
-        for lead in self.blocks:
-            for blk in lead.group:  # the lead's material computes its whole group
-                view = self._rows_view(blk, interior)
-                if view is not None and not lead.material.force_fused(view, f):
-                    raise RuntimeError(f"material {lead.material.name!r} declares row_local but its force_fused declined block {blk.name!r}")
+        return evaluate_forces(self)
 
     def apply_kinematic(self, t: float, t_prev: float) -> None:
         apply_kinematic(self.host, self.kinematic, t, t_prev)
@@ -640,7 +545,7 @@ class Simulation:
 
     def density_per_point(self) -> np.ndarray:
         """(num_owned,) mass density of every owned point."""
-        if not hasattr(self, "_rho"):
+        if self._rho is None:
             densities = np.array([blk.density for blk in self.blocks])
             self._rho = densities[self.block_index] if self.num_local else np.zeros(0)
         return self._rho
@@ -653,23 +558,7 @@ class Simulation:
 
     def critical_time_steps(self) -> np.ndarray:
         """(num_owned,) each point's sqrt(2 rho / sum_j V_j c / |xi_ij|) (inf without bonds)."""
-        nl = self.bonds
-        s = self.fields
-        dt = np.full(self.num_local, np.inf)
-        for blk in self.blocks:
-            K = blk.material.bulk_modulus
-            if blk.horizon is not None:
-                d = np.float64(blk.horizon)
-                with np.errstate(all="ignore"):  # a horizon whose 4th power under- or overflows
-                    c = float((18.0 * K) / ((((math.pi * d) * d) * d) * d))
-                c_point = np.zeros(0)
-            else:
-                h = self.horizon_local
-                c = 0.0
-                with np.errstate(all="ignore"):
-                    c_point = (18.0 * K) / ((((math.pi * h) * h) * h) * h)
-            critical_time_step_kernel(blk.start, blk.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Volume"], blk.density, c, c_point, dt)
-        return dt[: self.num_owned]
+        return critical_time_steps(self)
 
     # -- energies (owned points; reduced over ranks) --------------------------------------------
     def kinetic_energy(self) -> float:
@@ -701,45 +590,3 @@ class Simulation:
         if self.bond_force_vector is not None:
             total += self.bond_force_vector.nbytes
         return total
-
-
-def resolve_device(deck: Deck, device: str | None, backend: str | None) -> tuple[str, str | None]:
-    """("cpu" or "gpu", the GPU backend's name or None): ``--device`` wins over the solver
-    sections' ``Device``; a ``--backend`` whose arrays live on a GPU means ``--device gpu``."""
-    gpu_backend = None
-    if backend is not None:
-        from ..plugins.manager import get_registry
-
-        cls = get_registry().get("backend", backend, path=("--backend",))
-        if getattr(cls, "device", "cpu") == "gpu":
-            gpu_backend = backend
-    if device is not None:
-        device = device.lower()
-        if device not in ("cpu", "gpu"):
-            raise InputError(f"--device {device!r} is not a device", file=deck.file, path=("--device",), fix="give --device cpu or --device gpu")
-        if device == "cpu" and gpu_backend:
-            raise InputError(f"--backend {backend} runs on a GPU, but --device cpu was given", file=deck.file, path=("--backend",),
-                             fix="leave out --device, or give a CPU backend (numba)")
-    if device is None:
-        asked = {entry.params.device.lower() for entry in deck.solvers if getattr(entry.params, "device", None)}
-        if len(asked) > 1:
-            raise InputError("the solver sections ask for different devices (Device: CPU and GPU)", file=deck.file, path=("Solver", "Device"),
-                             fix="give every solver section the same Device, or choose one with --device")
-        device = asked.pop() if asked else ("gpu" if gpu_backend else "cpu")
-    if device == "gpu" and backend is not None and not gpu_backend:
-        raise InputError(f"--backend {backend} runs on the CPU, but the run is on the GPU", file=deck.file, path=("--backend",),
-                         fix="leave out --backend (the GPU backend is cuda), or run with --device cpu")
-    return device, gpu_backend
-
-
-def _block_id_from_name(name: str, names_by_id: dict[int, str]) -> int | None:
-    """Peridigm: the block id is the integer after the last '_' of the name; a mesh block whose
-    own name matches is found by name first."""
-    for bid, mesh_name in names_by_id.items():
-        if mesh_name == name:
-            return bid
-    tail = name.rsplit("_", 1)[-1]
-    try:
-        return int(tail)
-    except ValueError:
-        return None

@@ -17,7 +17,7 @@ from peridyn.core.interfaces import Simulation
 from peridyn.testing.harness import build_simulation, cube_deck
 
 PACKAGE = Path(__file__).resolve().parents[3] / "peridyn"
-OWN = {PACKAGE / "engine" / "simulation.py", PACKAGE / "engine" / "session.py", PACKAGE / "cli.py"}
+OWN = {PACKAGE / "engine" / "simulation.py", PACKAGE / "engine" / "forces.py", PACKAGE / "engine" / "session.py", PACKAGE / "cli.py"}
 
 
 def declared() -> set[str]:
