@@ -34,6 +34,7 @@ from ...core.interfaces import BlockView, ElasticModuli, Material
 from ...core.params import ModelParams, ParamKeyError, UsedWhen
 from ..moduli import bulk_and_shear, isotropic_moduli
 from . import bond_associated_kernels as kern
+from . import bond_associated_gradients as grad
 from .params import CorrespondenceBaseParams
 
 TWO = Temporal.TWO_STEP
@@ -262,7 +263,7 @@ class BondAssociatedCorrespondence(Material):
             if name in s:
                 s[name][lo:hi] = 0.0
         kind, table = self._omega(block)
-        kern.initialize_kernel(lo, hi, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Volume"], s["Horizon"], kind, table,
+        grad.initialize_kernel(lo, hi, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Volume"], s["Horizon"], kind, table,
                                s.get("Bond_Damage", EMPTY), s["Influence_State"], s["Gradient_Weight"],
                                s["Weighted_Volume"], backend=block.backend)
 
@@ -270,7 +271,7 @@ class BondAssociatedCorrespondence(Material):
         s, nl = block.fields, block.bonds
         kind, table = self._omega(block)
         damaged = "Damage" in s and "Bond_Damage" in s
-        kern.precompute_kernel(
+        grad.precompute_kernel(
             block.start, block.stop, nl.offsets, nl.neighbors, s["Model_Coordinates"], s["Volume"], s["Horizon"], kind, table,
             s.n("Damage") if damaged else EMPTY, s["Damage"] if damaged else EMPTY, s["Bond_Damage"] if damaged else EMPTY,
             s["Influence_State"], s["Gradient_Weight"], s["Displacement"], s["Velocity"], *(s[name] for name in F_ROWS + FDOT_ROWS),

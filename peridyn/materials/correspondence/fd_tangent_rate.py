@@ -26,6 +26,7 @@ from numba import njit, prange
 
 from ...core.assembly import local_vector_force_kernel
 from . import bond_associated_kernels as BK
+from . import bond_associated_gradients as BKG
 from . import hypoelastic_kernels as HK
 from .fd_tangent import scatter_rows
 
@@ -117,9 +118,9 @@ def ba_point_block(i, offsets, neighbors, x, y, v, u, volume, horizon, omega_kin
                 y[q, cc] = orig - eps if side == 0 else orig + eps
                 v[q, cc] = vorig - dv if side == 0 else vorig + dv
                 if check and damage_NP1[i] - damage_N[i] > 1.0e-15:
-                    BK.gradient_weights_point(i, offsets, neighbors, x, volume, horizon, omega_kind, omega_table, bond_damage, influence,
+                    BKG.gradient_weights_point(i, offsets, neighbors, x, volume, horizon, omega_kind, omega_table, bond_damage, influence,
                                               phi)
-                BK.deformation_gradient_point(i, offsets, neighbors, volume, phi, u, v, FX, FY, FZ, FdX, FdY, FdZ)
+                BKG.deformation_gradient_point(i, offsets, neighbors, volume, phi, u, v, FX, FY, FZ, FdX, FdY, FdZ)
                 st = BK.bond_point(i, offsets, neighbors, x, y, v, volume, m, influence, phi, FX, FY, FZ, FdX, FdY, FdZ, bV_N, bR_N,
                                    bV_NP1, bR_NP1, bsig_N, bsig_NP1, beqps_N, beqps_NP1, model, K, G, p0, p1, p2, p3, dt, P, T)
                 if st != 0:

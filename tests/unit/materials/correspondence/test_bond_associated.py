@@ -15,6 +15,7 @@ from peridyn.core.errors import ExitCode, InstabilityError
 from peridyn.core.influence import ONE
 from peridyn.deck.files import dump_yaml
 from peridyn.materials.correspondence import bond_associated_kernels as kern
+from peridyn.materials.correspondence import bond_associated_gradients as grad
 from peridyn.engine.session import run_sections
 
 EMPTY = np.zeros(0)
@@ -139,9 +140,9 @@ def cloud(ref, m=5, seed=0, damaged=False):
     c = {"x": x, "y": x + u, "u": u, "v": v, "vol": vol, "horizon": horizon, "offsets": offsets, "nbr": nbr, "dt": 1e-8, "bV": bV, "bR": bR,
          "bsig": bsig, "beqps": 0.01 * rng.random(nb), "damage": damage}
     c["omega"], c["phi"], c["m"] = np.zeros(nb), np.zeros((nb, 3)), np.zeros(n)
-    kern.initialize_kernel(0, n, offsets, nbr, x, vol, horizon, ONE, EMPTY, damage, c["omega"], c["phi"], c["m"])
+    grad.initialize_kernel(0, n, offsets, nbr, x, vol, horizon, ONE, EMPTY, damage, c["omega"], c["phi"], c["m"])
     rows = [np.zeros((n, 3)) for _ in range(6)]
-    kern.precompute_kernel(0, n, offsets, nbr, x, vol, horizon, ONE, EMPTY, EMPTY, EMPTY, EMPTY, c["omega"], c["phi"], u, v, *rows)
+    grad.precompute_kernel(0, n, offsets, nbr, x, vol, horizon, ONE, EMPTY, EMPTY, EMPTY, EMPTY, c["omega"], c["phi"], u, v, *rows)
     c["F"] = np.concatenate(rows[:3], axis=1)
     c["Fd"] = np.concatenate(rows[3:], axis=1)
     return c
@@ -179,7 +180,7 @@ def test_gradient_weights_reproduce_affine_fields_and_match_the_reference(ref):
     A = np.array([[0.01, 0.02, -0.01], [0.0, -0.015, 0.03], [0.02, 0.0, 0.01]])
     c2 = dict(c, u=c["x"] @ A.T)
     rows = [np.zeros((len(c["x"]), 3)) for _ in range(6)]
-    kern.precompute_kernel(0, len(c["x"]), c["offsets"], c["nbr"], c["x"], c["vol"], c["horizon"], ONE, EMPTY, EMPTY, EMPTY, EMPTY,
+    grad.precompute_kernel(0, len(c["x"]), c["offsets"], c["nbr"], c["x"], c["vol"], c["horizon"], ONE, EMPTY, EMPTY, EMPTY, EMPTY,
                            c["omega"], c["phi"], c2["u"], c["x"] @ (2.0 * A).T, *rows)
     F = np.stack(rows[:3], axis=1)
     np.testing.assert_allclose(F, np.broadcast_to(np.eye(3) + A, F.shape), atol=1e-12)
@@ -190,12 +191,12 @@ def test_pseudo_inverse_drops_the_directions_below_the_threshold():
     rng = np.random.default_rng(3)
     B = rng.standard_normal((3, 2))
     M = B @ B.T  # rank 2: Peridigm's invertAndCond never fails, it drops the null direction
-    Mp = kern.pseudo_inverse(M, 1e-9)
+    Mp = grad.pseudo_inverse(M, 1e-9)
     np.testing.assert_allclose(Mp, np.linalg.pinv(M), rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(M @ Mp @ M, M, atol=1e-12)
-    np.testing.assert_array_equal(kern.pseudo_inverse(np.zeros((3, 3)), 0.0), np.zeros((3, 3)))
+    np.testing.assert_array_equal(grad.pseudo_inverse(np.zeros((3, 3)), 0.0), np.zeros((3, 3)))
     full = M + np.eye(3)
-    np.testing.assert_allclose(kern.pseudo_inverse(full, 1e-9), np.linalg.inv(full), rtol=1e-12)
+    np.testing.assert_allclose(grad.pseudo_inverse(full, 1e-9), np.linalg.inv(full), rtol=1e-12)
 
 
 def test_damage_growth_recomputes_the_weights_but_keeps_the_weighted_volume(ref):
@@ -210,7 +211,7 @@ def test_damage_growth_recomputes_the_weights_but_keeps_the_weighted_volume(ref)
     dNP1[::3] = 0.5
     rows = [np.zeros((n, 3)) for _ in range(6)]
     omega, phi = c["omega"].copy(), c["phi"].copy()
-    kern.precompute_kernel(0, n, c["offsets"], c["nbr"], c["x"], c["vol"], c["horizon"], ONE, EMPTY, dN, dNP1, bond_damage,
+    grad.precompute_kernel(0, n, c["offsets"], c["nbr"], c["x"], c["vol"], c["horizon"], ONE, EMPTY, dN, dNP1, bond_damage,
                            omega, phi, c["u"], c["v"], *rows)
     for i in range(n):
         sl = slice(c["offsets"][i], c["offsets"][i + 1])

@@ -9,6 +9,7 @@ import pytest
 from peridyn.core.influence import ONE, PARABOLIC_DECAY
 from peridyn.kernels.numba_cpu import NumbaBackend, SerialNumbaBackend
 from peridyn.materials.correspondence import bond_associated_kernels as BK
+from peridyn.materials.correspondence import bond_associated_gradients as BKG
 from peridyn.materials.correspondence import hypoelastic_kernels as HK
 from peridyn.materials.correspondence.classic import BOND_STATES, BOND_STATES_HOURGLASS
 from peridyn.materials.correspondence.forces import _force_state, _hourglass_bond, partial_stress_kernel
@@ -106,10 +107,10 @@ def test_bond_associated_weights_and_gradients_are_the_per_point_helpers_bit_for
     n, nb = len(x), len(nbr)
     lo, hi = 5, n - 3
     om, phi, m = np.zeros(nb), np.zeros((nb, 3)), np.zeros(n)
-    BK.initialize_kernel(lo, hi, offsets, nbr, x, vol, horizon, PARABOLIC_DECAY, EMPTY, bd, om, phi, m, backend=backend)
+    BKG.initialize_kernel(lo, hi, offsets, nbr, x, vol, horizon, PARABOLIC_DECAY, EMPTY, bd, om, phi, m, backend=backend)
     om2, phi2 = np.zeros(nb), np.zeros((nb, 3))
     for i in range(lo, hi):
-        BK.gradient_weights_point(i, offsets, nbr, x, vol, horizon, PARABOLIC_DECAY, EMPTY, bd, om2, phi2)
+        BKG.gradient_weights_point(i, offsets, nbr, x, vol, horizon, PARABOLIC_DECAY, EMPTY, bd, om2, phi2)
     np.testing.assert_array_equal(om, om2)
     np.testing.assert_array_equal(phi, phi2)
     for i in range(lo, hi):
@@ -123,14 +124,14 @@ def test_bond_associated_weights_and_gradients_are_the_per_point_helpers_bit_for
     bd_new = np.where(rng.random(nb) < 0.3, 1.0, 0.0)
     rows = [np.zeros((n, 3)) for _ in range(6)]
     om_l, phi_l = om.copy(), phi.copy()
-    BK.precompute_kernel(lo, hi, offsets, nbr, x, vol, horizon, PARABOLIC_DECAY, EMPTY, dN, dNP1, bd_new, om_l, phi_l, u, v, *rows,
+    BKG.precompute_kernel(lo, hi, offsets, nbr, x, vol, horizon, PARABOLIC_DECAY, EMPTY, dN, dNP1, bd_new, om_l, phi_l, u, v, *rows,
                          backend=backend)
     rows2 = [np.zeros((n, 3)) for _ in range(6)]
     om_p, phi_p = om.copy(), phi.copy()
     for i in range(lo, hi):
         if dNP1[i] - dN[i] > 1.0e-15:
-            BK.gradient_weights_point(i, offsets, nbr, x, vol, horizon, PARABOLIC_DECAY, EMPTY, bd_new, om_p, phi_p)
-        BK.deformation_gradient_point(i, offsets, nbr, vol, phi_p, u, v, *rows2)
+            BKG.gradient_weights_point(i, offsets, nbr, x, vol, horizon, PARABOLIC_DECAY, EMPTY, bd_new, om_p, phi_p)
+        BKG.deformation_gradient_point(i, offsets, nbr, vol, phi_p, u, v, *rows2)
     for a, b in zip([om_l, phi_l, *rows], [om_p, phi_p, *rows2]):
         np.testing.assert_array_equal(a, b)
     assert not np.array_equal(om_l, om)
@@ -147,11 +148,11 @@ def test_bond_associated_deformation_gradient_of_a_point_without_bonds_is_the_id
     nbr2 = nbr[keep]
     phi = np.random.default_rng(0).standard_normal((len(nbr2), 3))
     rows = [np.full((n, 3), 9.0) for _ in range(6)]
-    BK.precompute_kernel(0, n, offsets2, nbr2, x, vol, horizon, ONE, EMPTY, EMPTY, EMPTY, EMPTY, np.zeros(len(nbr2)), phi, u, v, *rows,
+    BKG.precompute_kernel(0, n, offsets2, nbr2, x, vol, horizon, ONE, EMPTY, EMPTY, EMPTY, EMPTY, np.zeros(len(nbr2)), phi, u, v, *rows,
                          backend=backend)
     rows2 = [np.full((n, 3), 9.0) for _ in range(6)]
     for i in range(n):
-        BK.deformation_gradient_point(i, offsets2, nbr2, vol, phi, u, v, *rows2)
+        BKG.deformation_gradient_point(i, offsets2, nbr2, vol, phi, u, v, *rows2)
     for a, b in zip(rows, rows2):
         np.testing.assert_array_equal(a, b)
     np.testing.assert_array_equal(np.stack(rows[:3], axis=1)[7], np.eye(3))
@@ -162,9 +163,9 @@ def ba_force_case(ref, seed, damaged, model):
     rng, x, horizon, offsets, nbr, vol, u, v, bd = ba_inputs(ref, seed, damaged)
     n, nb = len(x), len(nbr)
     om, phi, m = np.zeros(nb), np.zeros((nb, 3)), np.zeros(n)
-    BK.initialize_kernel(0, n, offsets, nbr, x, vol, horizon, ONE, EMPTY, bd, om, phi, m)
+    BKG.initialize_kernel(0, n, offsets, nbr, x, vol, horizon, ONE, EMPTY, bd, om, phi, m)
     rows = [np.zeros((n, 3)) for _ in range(6)]
-    BK.precompute_kernel(0, n, offsets, nbr, x, vol, horizon, ONE, EMPTY, EMPTY, EMPTY, EMPTY, om, phi, u, v, *rows)
+    BKG.precompute_kernel(0, n, offsets, nbr, x, vol, horizon, ONE, EMPTY, EMPTY, EMPTY, EMPTY, om, phi, u, v, *rows)
     Vb, Rb, Sb = bond_tensors(ref, rng, nb, 1e8)
     eb = 0.01 * rng.random(nb) if model != BK.ELASTIC else EMPTY
     return x, x + u, v, vol, m, om, phi, rows, offsets, nbr, Vb, Rb, Sb, eb
