@@ -2,7 +2,7 @@
 :class:`~peridyn.core.traversal.PointReduction`) for the CPU and GPU backends.
 
 A point update is the law's function called once per item, on CPU threads (``prange``) or a
-GPU thread per item. A reduction sums the law's terms in a fixed order: in item order on one CPU
+GPU thread per item. A reduction sums (or takes the largest or smallest of) the law's terms in a fixed order: in item order on one CPU
 thread (the same bits on every thread count), and on a GPU in a fixed tree (per-block partial
 sums of a grid-stride loop, then one block over the partials), the same every run.
 """
@@ -94,7 +94,7 @@ def _tree(buf, t):
     while s > 0:
         if t < s:
             for k in range(WIDTH):
-                buf[k, t] += buf[k, t + s]
+                {tree_merge}
         cuda.syncthreads()
         s //= 2
 
@@ -118,10 +118,10 @@ def _total(partial, nblocks, out):
     buf = cuda.shared.array((WIDTH, THREADS), float64)
     t = cuda.threadIdx.x
     for k in range(WIDTH):
-        acc = 0.0
+        acc = {identity}
         r = t
         while r < nblocks:
-            acc += partial[r, k]
+            {total_merge}
             r += THREADS
         buf[k, t] = acc
     _tree(buf, t)
@@ -144,20 +144,35 @@ def kernel(start, stop, args, out):
 '''
 
 
+#: per combine: (the value over no items, the text that merges the value ``b`` into ``a``)
+COMBINE = {
+    "sum": ("0.0", "{a} += {b}"),
+    "max": ("-math.inf", "if {b} > {a}: {a} = {b}"),
+    "min": ("math.inf", "if {b} < {a}: {a} = {b}"),
+}
+
+
+def _merge(law: PointReduction, a: str, b: str) -> str:
+    """The statement merging the value ``b`` into the accumulator ``a`` by the law's combine."""
+    return COMBINE[law.combine][1].format(a=a, b=b)
+
+
 def _sums(law: PointReduction, indent: str) -> tuple[str, str]:
-    """(the accumulators set to 0, their update by item i's term) as text."""
+    """(the accumulators set to the combine's start, their update by item i's term) as text."""
     w = law.width
-    zero = "\n".join(f"{indent}acc{k} = 0.0" for k in range(w))
+    zero = "\n".join(f"{indent}acc{k} = {COMBINE[law.combine][0]}" for k in range(w))
     if w == 1:
-        add = f"{indent}    acc0 += term(i, args)"
+        add = f"{indent}    r = term(i, args)\n{indent}    {_merge(law, 'acc0', 'r')}"
     else:
-        add = f"{indent}    r = term(i, args)\n" + "\n".join(f"{indent}    acc{k} += r[{k}]" for k in range(w))
+        add = f"{indent}    r = term(i, args)\n" + "\n".join(f"{indent}    {_merge(law, f'acc{k}', f'r[{k}]')}" for k in range(w))
     return zero, add
 
 
 def _check(law: ItemLaw) -> None:
     if isinstance(law, PointReduction) and not law.width >= 1:
         raise TypeError(f"a point reduction sums at least one value: {law!r}")
+    if isinstance(law, PointReduction) and law.combine not in COMBINE:
+        raise TypeError(f"a point reduction combines by one of {sorted(COMBINE)}: {law!r}")
     if not isinstance(law, (PointUpdate, PointReduction)):
         raise TypeError(f"not a point law: {law!r}")
 
@@ -183,4 +198,5 @@ def gpu_source(law: ItemLaw, imports: str, *, threads: int, blocks: str, max_blo
     zero, add = _sums(law, "    ")
     share = "\n".join(f"    buf[{k}, t] = acc{k}" for k in range(law.width))
     return GPU_REDUCTION.format(imports=imports, threads=threads, max_blocks=max_blocks, width=law.width, zero=zero, add=add,
-                                share=share)
+                                share=share, identity=COMBINE[law.combine][0], tree_merge=_merge(law, "buf[k, t]", "buf[k, t + s]"),
+                                total_merge=_merge(law, "acc", "partial[r, k]"))
