@@ -203,19 +203,22 @@ class ContactManager:
         if self._pairs is None or self._moved_too_far(state):
             state = self._build(state)
         pairs = self._pairs
-        out = self._fields["Contact_Force_Density"][:n]
+        out = self._fields["Contact_Force_Density"]
+        if out.shape[0] != n:  # the host's halo points follow; a GPU's array is not sliced (a device view costs Python)
+            out = out[:n]
         if n:
             b.kernel(ZERO_VECTORS)(0, n, (out,))
             self._force(pairs, state, out)
             b.kernel(ADD_VECTORS)(0, n, (out, f))
         st = self.stats
-        if self._host:  # a checkpoint or a restart may have set the statistics
-            self._running[0] = st["min_distance"]
-            self._running[1] = st["min_distance_time"]
-        b.kernel(MIN_PAIR_DISTANCE2)(0, n, (pairs.offsets, pairs.partners, state.y), self._step_min)
-        b.kernel(TRACK_MIN_DISTANCE)(0, 1, (self._step_min, self._running, float(t)))
-        if self._host:
-            self._read_min()
+        if pairs.num_pairs:
+            if self._host:  # a restart may have set the statistics
+                self._running[0] = st["min_distance"]
+                self._running[1] = st["min_distance_time"]
+            b.kernel(MIN_PAIR_DISTANCE2)(0, n, (pairs.offsets, pairs.partners, state.y), self._step_min)
+            b.kernel(TRACK_MIN_DISTANCE)(0, 1, (self._step_min, self._running, float(t)))
+            if self._host:
+                self._read_min()
         st["force_time"] += _time.perf_counter() - t0
         st["force_calls"] += 1
 
@@ -223,9 +226,10 @@ class ContactManager:
     def _current_state(self, t: float) -> ContactState:
         fields = self._fields
         if self.ghosts is None:
-            state = self.state = ContactState(
-                fields["Coordinates"], fields["Velocity"], fields["Volume"], self._horizon, self._block, self._gid, self.num_owned
-            )
+            state = self.state
+            y, v, volume = fields["Coordinates"], fields["Velocity"], fields["Volume"]
+            if state is None or state.y is not y or state.v is not v or state.volume is not volume or state.gid is not self._gid:
+                state = self.state = ContactState(y, v, volume, self._horizon, self._block, self._gid, self.num_owned)
             state.time = t
             return state
         if self.state is not None:

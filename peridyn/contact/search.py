@@ -206,8 +206,8 @@ def build_pairs(binning: Binning, y: Any, test: tuple, cap: int) -> tuple[Contac
             break
         cap = max(largest + largest // 4, 2 * cap)  # overflow: grow and gather again
     offsets = binning.offsets()
-    partners = backend.zeros(max(total, 1), np.int32)[:total]
-    visits = backend.zeros(max(total, 1), np.uint8)[:total]
+    partners = backend.zeros(total, np.int32)
+    visits = backend.zeros(total, np.uint8)
     n = binning.num_owned
     if n:
         backend.kernel(COMPACT)(0, n, (cap, binning.rows, binning.row_visits, offsets, partners, visits))
