@@ -16,7 +16,7 @@ from numba import njit, prange
 
 from ..core.traversal import PointSum
 from ..kernels import default_backend
-from .search import in_sorted
+from .pair_laws import in_sorted
 
 
 # not a loop law: one binary search per (row, key) query, not a traversal of the row's bonds

@@ -9,6 +9,12 @@ now, that lay within R_s at s and are not bonded, is rebuilt whenever a search i
 point has moved more than skin / 2 since the last build. A pair missing from the short list was
 farther than R_c + skin apart at the build, and two points that each moved less than skin / 2
 cannot have closed that gap, so the pairs that act are exactly Peridigm's.
+
+This schedule is the one of every target. The manager starts on the simulation's own arrays (the
+CPU); ``place`` moves it to another backend's arrays (a GPU's), where the same steps run the same
+laws (``pair_laws.py``, the model's ``force_on``) and only the binning of the search is the
+target's (``search.Binning``). ``to_host`` brings the pairs, the search positions and the
+statistics back for output, checkpoints and an instability's diagnosis.
 """
 from __future__ import annotations
 
@@ -17,13 +23,18 @@ import math
 import time as _time
 from typing import Any
 
+from functools import partial
+
 import numpy as np
 
 from ..core.errors import InputError
 from ..core.fields import FieldSpec, Length, Relation
 from ..core.interfaces import ContactPairs, ContactState
+from ..core.traversal import Backend
+from ..kernels.scatter import ZERO_VECTORS
 from .bonds import one_sided_partners
-from .search import max_displacement2_kernel, min_pair_distance2_kernel, search_pairs
+from .pair_laws import ADD_VECTORS, COPY_VECTORS, MAX_DISPLACEMENT2, MIN_PAIR_DISTANCE2, TRACK_MIN_DISTANCE
+from .search import Binning, CellSearch, build_pairs
 
 log = logging.getLogger("peridyn.contact")
 
@@ -96,6 +107,8 @@ class ContactManager:
             from .ghosts import ContactGhosts
 
             self.ghosts = ContactGhosts(sim)
+        #: the host's view, which checkpoints, output and the diagnosis read: the pairs, the
+        #: positions the list was built at (n, 3); on the CPU the placed arrays themselves
         self.pairs: ContactPairs | None = None
         self.state: ContactState | None = None
         self.y_build: np.ndarray | None = None
@@ -103,50 +116,120 @@ class ContactManager:
         self.stats = {"searches": 1, "builds": 0, "build_time": 0.0, "force_time": 0.0, "force_calls": 0, "pairs": 0,
                       "max_pairs": 0, "overflows": 0, "ghosts": 0, "min_distance": math.inf, "min_distance_time": math.nan, "sync_time": 0.0}
         self._dt_stable: float | None = None
+        self._host = True
+        self._bind(sim.backend, sim.fields, sim.bonds, CellSearch(sim.backend, n, self.rb))
+
+    # -- where the arrays live ------------------------------------------------------------------
+    def place(self, backend: Backend, fields: Any, bonds: Any, binning: Binning) -> "ContactManager":
+        """This contact, from now on, on ``backend``'s arrays: ``fields`` the step's fields there
+        (a FieldStore's access), ``bonds`` the bond lists there (``offsets``, ``neighbors``),
+        ``binning`` the target's binning of the search. The host's search positions, capacity
+        and statistics go with it; the pair list is built again at the first force."""
+        if self.ghosts is not None:
+            raise NotImplementedError("contact on GPUs under MPI is not built")
+        if backend.device not in type(self.model).devices:
+            raise NotImplementedError(f"the contact model {self.model.name!r} has no {backend.device.upper()} kernels")
+        self._host = backend.device == "cpu" and fields is self.sim.fields
+        self._bind(backend, fields, bonds, binning)
+        return self
+
+    def _bind(self, backend: Backend, fields: Any, bonds: Any, binning: Binning) -> None:
+        """The placed arrays (the host's own where they already are)."""
+        put = (lambda a: a) if self._host else backend.asarray
+        self._backend = backend
+        self._fields = fields
+        self._bonds = bonds
+        self._binning = binning
+        self._force = self.model.force if self._host else partial(self.model.force_on, backend)
+        self._gid = put(self.gid)
+        self._block = put(self.block)
+        self._horizon = put(self.horizon)
+        self._near2 = put(np.ascontiguousarray(self.near2, dtype=np.float64))
+        self._bond_gid = put(np.ascontiguousarray(self.sim.gid, dtype=np.int64))
+        self._one_offsets = put(self.one_offsets)
+        self._one_gid = put(self.one_gid if self.one_gid.size else np.zeros(1, np.int64))
+        self._s = self.s if self._host else backend.asarray(np.array(self.s, dtype=np.float64))
+        self._y_build = None
+        self._pairs: ContactPairs | None = None
+        self._scalar = backend.zeros(1)
+        self._step_min = backend.zeros(1)
+        self._running = backend.asarray(np.array([self.stats["min_distance"], self.stats["min_distance_time"]], dtype=np.float64))
+
+    def _set_pairs(self, pairs: ContactPairs | None) -> None:
+        self._pairs = pairs
+        if self._host:
+            self.pairs = pairs
+
+    def _read_min(self) -> None:
+        md, when = self._backend.to_host(self._running)
+        self.stats["min_distance"] = float(md)
+        self.stats["min_distance_time"] = float(when)
+
+    def to_host(self) -> None:
+        """The host's view made current from the placed arrays (nothing to do on the host): the
+        smallest pair distance so far, the pair list, the search positions and where the list
+        was built, so that ``potential_energy`` (on host fields the caller downloaded),
+        ``diagnosis``, ``summary`` and a checkpoint answer for the run."""
+        if self._host:
+            return
+        b = self._backend
+        self._read_min()
+        p = self._pairs
+        self.pairs = None if p is None else ContactPairs(np.asarray(b.to_host(p.offsets)), np.asarray(b.to_host(p.partners)),
+                                                         np.asarray(b.to_host(p.visits)))
+        np.copyto(self.s, b.to_host(self._s))
+        if p is not None:
+            self.y_build = np.asarray(b.to_host(self._y_build))
 
     # -- what the explicit solver calls ----------------------------------------------------------
     def begin_step(self, step: int) -> None:
         """Start of explicit step ``step`` (1, 2, ...), before the first half kick: a search is
         due when step % Search Frequency == 0, on the current (previous step's) positions."""
         if step % self.frequency == 0:
-            np.copyto(self.s, self.sim.fields["Coordinates"][: self.num_owned])
-            self.pairs = None
+            self._backend.kernel(COPY_VECTORS)(0, self.num_owned, (self._fields["Coordinates"], self._s))
+            self._set_pairs(None)
             self.stats["searches"] += 1
 
-    def add_force(self, f: np.ndarray, t: float, step: int) -> None:
+    def add_force(self, f: Any, t: float, step: int) -> None:
         """Contact_Force_Density of the owned points at the current positions and velocities,
-        added to the force density f (n, 3). Step 0 uses the friction law's value at t = 0."""
+        added to the force density f (n, 3), both on the placed arrays. Step 0 uses the friction
+        law's value at t = 0."""
         t0 = _time.perf_counter()
-        sim = self.sim
         n = self.num_owned
+        b = self._backend
         if step > 0:
             self.model.begin_step(t)
         state = self._current_state(t)
-        if self.pairs is None or self._moved_too_far(state):
+        if self._pairs is None or self._moved_too_far(state):
             state = self._build(state)
-        fc = sim.fields["Contact_Force_Density"]
-        out = fc[:n]
-        out[...] = 0.0
-        self.model.force(self.pairs, state, out)
-        f[:n] += out
-        d2 = min_pair_distance2_kernel(n, self.pairs.offsets, self.pairs.partners, state.y) if self.pairs.num_pairs else math.inf
-        if d2 < self.stats["min_distance"] ** 2:
-            self.stats["min_distance"] = math.sqrt(d2)
-            self.stats["min_distance_time"] = t
-        self.stats["force_time"] += _time.perf_counter() - t0
-        self.stats["force_calls"] += 1
+        pairs = self._pairs
+        out = self._fields["Contact_Force_Density"]
+        if out.shape[0] != n:  # the host's halo points follow; a GPU's array is not sliced (a device view costs Python)
+            out = out[:n]
+        if n:
+            b.kernel(ZERO_VECTORS)(0, n, (out,))
+            self._force(pairs, state, out)
+            b.kernel(ADD_VECTORS)(0, n, (out, f))
+        st = self.stats
+        if pairs.num_pairs:
+            if self._host:  # a restart may have set the statistics
+                self._running[0] = st["min_distance"]
+                self._running[1] = st["min_distance_time"]
+            b.kernel(MIN_PAIR_DISTANCE2)(0, n, (pairs.offsets, pairs.partners, state.y), self._step_min)
+            b.kernel(TRACK_MIN_DISTANCE)(0, 1, (self._step_min, self._running, float(t)))
+            if self._host:
+                self._read_min()
+        st["force_time"] += _time.perf_counter() - t0
+        st["force_calls"] += 1
 
     # -- pairs ----------------------------------------------------------------------------------
     def _current_state(self, t: float) -> ContactState:
-        sim = self.sim
-        fields = sim.fields
+        fields = self._fields
         if self.ghosts is None:
-            n = self.num_owned
             state = self.state
-            if state is None:
-                state = self.state = ContactState(
-                    fields["Coordinates"], fields["Velocity"], fields["Volume"], self.horizon, self.block, self.gid, n
-                )
+            y, v, volume = fields["Coordinates"], fields["Velocity"], fields["Volume"]
+            if state is None or state.y is not y or state.v is not v or state.volume is not volume or state.gid is not self._gid:
+                state = self.state = ContactState(y, v, volume, self._horizon, self._block, self._gid, self.num_owned)
             state.time = t
             return state
         if self.state is not None:
@@ -155,9 +238,11 @@ class ContactManager:
         return self.state  # None before the first build (built with the ghosts)
 
     def _moved_too_far(self, state: ContactState | None) -> bool:
-        if state is None or self.y_build is None:
+        if state is None or self._y_build is None:
             return True
-        m = max_displacement2_kernel(state.y.shape[0], state.y, self.y_build)
+        b = self._backend
+        b.kernel(MAX_DISPLACEMENT2)(0, state.y.shape[0], (state.y, self._y_build), self._scalar)
+        m = max(float(b.to_host(self._scalar)[0]), 0.0)
         if self.ghosts is not None:
             t0 = _time.perf_counter()
             m = self.sim.comm.allreduce_max(m)  # waits for the slowest rank's force evaluation too
@@ -166,33 +251,36 @@ class ContactManager:
 
     def _build(self, state: ContactState | None) -> ContactState:
         t0 = _time.perf_counter()
-        sim = self.sim
         n = self.num_owned
         if self.ghosts is not None:
             state, s, x = self.ghosts.build(self, self.rb)
             near2 = np.concatenate([self.near2, (state.horizon[n:] * (1.0 - 1e-9)) ** 2 if self.near_rule else np.full(state.y.shape[0] - n, -1.0)])
         else:
-            s, x, near2 = self.s, sim.fields["Model_Coordinates"], self.near2
+            s, x, near2 = self._s, self._fields["Model_Coordinates"], self._near2
         assert state is not None
-        offsets, partners, visits, cap, passes = search_pairs(
-            n, state.y, s, state.gid, self.rb, self.search_radius, sim.bonds, sim.gid, self.one_offsets, self.one_gid, self.capacity,
-            shortcut=(x, near2, state.block, self.cross_block),
-        )
+        bonds = self._bonds
+        test = (s, state.gid, x, near2, state.block, bool(self.cross_block), self.rb * self.rb, self.search_radius * self.search_radius,
+                bonds.offsets, bonds.neighbors, self._bond_gid, self._one_offsets, self._one_gid)
+        pairs, cap, passes, largest = build_pairs(self._binning, state.y, test, self.capacity)
         if self.ghosts is not None:  # keep the ghosts some pair lists; refresh only those
+            partners = pairs.partners
             used = np.zeros(state.y.shape[0] - n, dtype=bool)
             used[partners[partners >= n] - n] = True
             state, new_index = self.ghosts.keep(state, used)
-            partners = new_index[partners].astype(np.int32)
+            pairs = ContactPairs(pairs.offsets, new_index[partners].astype(np.int32), pairs.visits)
             self.state = state
             self.stats["ghosts"] = max(self.stats["ghosts"], state.y.shape[0] - n)
         self.stats["overflows"] += passes - 1
-        largest = int(np.diff(offsets).max()) if n else 0
         self.capacity = max(16, cap if passes > 1 else min(cap, 2 * largest + 8))
-        self.pairs = ContactPairs(offsets, partners, visits)
-        self.y_build = np.array(state.y, copy=True)
+        self._set_pairs(pairs)
+        if self._y_build is None or self._y_build.shape != state.y.shape:
+            self._y_build = self._backend.zeros(state.y.shape)
+            if self._host:
+                self.y_build = self._y_build
+        self._backend.kernel(COPY_VECTORS)(0, state.y.shape[0], (state.y, self._y_build))
         self.stats["builds"] += 1
-        self.stats["pairs"] = self.pairs.num_pairs
-        self.stats["max_pairs"] = max(self.stats["max_pairs"], self.pairs.num_pairs)
+        self.stats["pairs"] = pairs.num_pairs
+        self.stats["max_pairs"] = max(self.stats["max_pairs"], pairs.num_pairs)
         self.stats["build_time"] += _time.perf_counter() - t0
         return state
 
@@ -200,7 +288,12 @@ class ContactManager:
         """Energy stored in the contact springs now (None if the model does not say). Collective."""
         if self.pairs is None or self.state is None and self.ghosts is not None:
             return 0.0
-        state = self._current_state(self.sim.state.time) if self.ghosts is None else self.state
+        if self.ghosts is None:  # the host's fields (a GPU run's downloaded first)
+            fields = self.sim.fields
+            state = ContactState(fields["Coordinates"], fields["Velocity"], fields["Volume"], self.horizon, self.block, self.gid,
+                                 self.num_owned, self.sim.state.time)
+        else:
+            state = self.state
         e = self.model.potential_energy(self.pairs, state)
         return None if e is None else float(self.sim.comm.allreduce_sum(e))
 
@@ -273,6 +366,8 @@ class ContactManager:
     # -- summary --------------------------------------------------------------------------------
     def summary(self) -> dict[str, Any]:
         """Run statistics reduced over ranks (collective under MPI)."""
+        if not self._host:
+            self._read_min()
         comm = self.sim.comm
         st = dict(self.stats)
         st["min_distance"] = comm.allreduce_min(float(st["min_distance"]))

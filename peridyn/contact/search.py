@@ -1,21 +1,26 @@
-"""Contact pair search kernels: a hashed cell list in the current configuration.
+"""The CPU's contact pair search: a sorted cell list in the current configuration, and the
+build of the pairs every target runs (``build_pairs``).
 
 Points are binned into cubic cells of the build radius r_b and sorted by cell key; each owned
 point scans the 27 cells around its own (9 contiguous key ranges, found by binary search), so
-memory is O(points) however far apart the bodies fly. Each row is written into a fixed-capacity
-slot of a buffer; a row that does not fit raises the overflow count, the caller grows the
-capacity to the largest row and searches again (no Python loop over points, no scatter).
-
-A pair (p, j) is kept when |y_j - y_p| <= r_b now, |s_j - s_p| <= R_s at the positions s of the
-last contact search (Peridigm's search list, PERIDIGM_CONTACT.md §3.3, inclusive), and the two
-points are not bonded both ways in the reference configuration (broken bonds count as bonds).
+memory is O(points) however far apart the bodies fly. Each candidate is tested and placed in its
+row by the function every target shares (``contact/pair_laws.py``: ``offer``); a row is a fixed-capacity slot of a buffer, and a row that does not fit raises
+the overflow count: ``build_pairs`` grows the capacity to the largest row and gathers again (no
+Python loop over points, no scatter), then copies the rows into CSR pairs (the ``COMPACT`` law).
+A GPU bins differently (``gpu/pair_search.py``, hashed buckets) behind the same
+:class:`Binning` methods.
 """
 from __future__ import annotations
 
-import math
+from abc import ABC, abstractmethod
+from typing import Any
 
 import numpy as np
 from numba import njit, prange
+
+from ..core.interfaces import ContactPairs
+from ..core.traversal import Backend
+from .pair_laws import COMPACT, offer
 
 #: largest number of cells along an axis (keys must fit in 63 bits); far-flung points share the
 #: outermost cells, which only adds candidates, never loses one
@@ -66,28 +71,6 @@ def cell_keys_kernel(n, y, lo, inv_h, dims, keys):
 
 
 @njit(cache=True, inline="always")
-def in_sorted(values, lo, hi, key, table):
-    """Whether table[values[k]] == key for some k in [lo, hi) (values sorted by table value)."""
-    while lo < hi:
-        mid = (lo + hi) >> 1
-        t = table[values[mid]]
-        if t < key:
-            lo = mid + 1
-        elif t > key:
-            hi = mid
-        else:
-            return True
-    return False
-
-
-@njit(cache=True, inline="always")
-def _in_sorted_plain(values, lo, hi, key):
-    """Whether values[k] == key for some k in [lo, hi) (values sorted)."""
-    k = lo + np.searchsorted(values[lo:hi], key)
-    return k < hi and values[k] == key
-
-
-@njit(cache=True, inline="always")
 def column_keys(ix, iy, cz, dims):
     """The keys of cells (ix, iy, cz - 1 .. cz + 1) inside the grid: a contiguous key range."""
     row = (ix * dims[1] + iy) * dims[2]
@@ -95,19 +78,16 @@ def column_keys(ix, iy, cz, dims):
 
 
 @njit(cache=True, parallel=True)
-def pair_search_kernel(num_owned, y, s, gid, order, ys, cells, cell_start, dims, rb2, rs2,
-                       bond_offsets, bond_neighbors, bond_gid, one_offsets, one_gid, x, near2, block, cross_block,
-                       cap, buf, buf_visits, counts):
+def pair_search_kernel(num_owned, y, order, ys, cells, cell_start, dims, s, gid, x, near2, block, cross_block, rb2, rs2,
+                       bond_offsets, bond_neighbors, bond_gid, one_offsets, one_gid, cap, buf, buf_visits, counts):
     """Candidate pairs of every owned point p into buf[p * cap : p * cap + counts[p]] (rows
     sorted by gid); counts[p] > cap means the row did not fit.
 
-    y, s: (n, 3) current and last-search positions; ``order`` sorts the points by cell, ys =
-    y[order]; ``cells`` are the occupied cell keys (sorted), the points of cell c are
-    order[cell_start[c]:cell_start[c + 1]]. Bond rows are sorted by bond_gid[neighbor]; one_gid
-    rows (sorted) are the partners bonded one way only. Shortcut: j is in p's bond list, without
-    a search of the list, when |x_j - x_p|^2 < near2[p] (reference positions x; near2 < 0
-    disables it) and the blocks agree or ``cross_block`` (bonds between blocks are kept).
-    Parallel over cells: the 9 key ranges around a cell are found once for all its points."""
+    y: (n, 3) current positions; ``order`` sorts the points by cell, ys = y[order]; ``cells``
+    are the occupied cell keys (sorted), the points of cell c are
+    order[cell_start[c]:cell_start[c + 1]]; the arguments from ``s`` to ``one_gid`` are those of
+    ``pair_visits``. Parallel over cells: the 9 key ranges around a cell are found once for all
+    its points."""
     d12 = dims[1] * dims[2]
     for c in prange(cells.size):
         key = cells[c]
@@ -137,121 +117,122 @@ def pair_search_kernel(num_owned, y, s, gid, order, ys, cells, cell_start, dims,
             y2 = ys[t0, 2]
             for r in range(m):
                 for t in range(first[r], last[r]):
-                    dx = ys[t, 0] - y0
-                    dy = ys[t, 1] - y1
-                    dz = ys[t, 2] - y2
-                    if not (dx * dx + dy * dy) + dz * dz <= rb2 or t == t0:
+                    if t == t0:
                         continue
-                    j = order[t]
-                    ex = s[j, 0] - s[p, 0]
-                    ey = s[j, 1] - s[p, 1]
-                    ez = s[j, 2] - s[p, 2]
-                    if not (ex * ex + ey * ey) + ez * ez <= rs2:
-                        continue
-                    gj = gid[j]
-                    fx = x[j, 0] - x[p, 0]
-                    fy = x[j, 1] - x[p, 1]
-                    fz = x[j, 2] - x[p, 2]
-                    if (fx * fx + fy * fy) + fz * fz < near2[p] and (cross_block or block[j] == block[p]):
-                        node = False
-                    else:
-                        node = not in_sorted(bond_neighbors, bond_offsets[p], bond_offsets[p + 1], gj, bond_gid)
-                    partner = node
-                    if one_offsets[p + 1] > one_offsets[p] and _in_sorted_plain(one_gid, one_offsets[p], one_offsets[p + 1], gj):
-                        partner = not node
-                    if not (node or partner):
-                        continue
-                    if cnt < cap:
-                        # insertion by gid keeps the row sorted
-                        k = cnt
-                        while k > 0 and gid[buf[base + k - 1]] > gj:
-                            buf[base + k] = buf[base + k - 1]
-                            buf_visits[base + k] = buf_visits[base + k - 1]
-                            k -= 1
-                        buf[base + k] = j
-                        buf_visits[base + k] = (1 if node else 0) | (2 if partner else 0)
-                    cnt += 1
+                    cnt = offer(p, order[t], ys, t, y0, y1, y2, s, gid, x, near2, block, cross_block, rb2, rs2, bond_offsets,
+                                bond_neighbors, bond_gid, one_offsets, one_gid, buf, buf_visits, base, cnt, cap)
             counts[p] = cnt
 
 
-@njit(cache=True, parallel=True)
-def compact_kernel(num_owned, cap, buf, buf_visits, offsets, partners, visits):
-    """Copy the rows of the padded buffer into CSR arrays."""
-    for p in prange(num_owned):
-        base = p * cap
-        o = offsets[p]
-        for k in range(offsets[p + 1] - o):
-            partners[o + k] = buf[base + k]
-            visits[o + k] = buf_visits[base + k]
+class Binning(ABC):
+    """A target's binning of points for the pair search, and the buffers of its rows.
+
+    ``bin(y)`` sorts the current positions y (n, 3) into the target's bins; ``gather(cap, test)``
+    fills the padded rows (``rows``, ``row_visits``: num_owned * cap entries) and ``counts``
+    (num_owned,) and returns (the largest row, the number of pairs); ``test`` is the tuple of
+    ``pair_visits``'s arguments from ``s`` to ``one_gid``. ``offsets()`` is the exclusive scan of
+    ``counts`` (num_owned + 1,) int64 on the target."""
+
+    def __init__(self, backend: Backend, num_owned: int, rb: float) -> None:
+        self.backend = backend
+        self.num_owned = num_owned
+        self.rb = rb
+        self.cap = 0
+        self.rows: Any = None
+        self.row_visits: Any = None
+        self.counts = backend.zeros(max(num_owned, 1), np.int64)
+
+    def reserve(self, cap: int) -> None:
+        """Buffers for rows of ``cap`` pairs (kept while the capacity stays the same)."""
+        if cap != self.cap:
+            size = max(self.num_owned * cap, 1)
+            self.rows = self.backend.zeros(size, np.int32)
+            self.row_visits = self.backend.zeros(size, np.uint8)
+            self.cap = cap
+
+    @abstractmethod
+    def bin(self, y: Any) -> None:
+        ...
+
+    @abstractmethod
+    def gather(self, cap: int, test: tuple) -> tuple[int, int]:
+        ...
+
+    @abstractmethod
+    def offsets(self) -> Any:
+        ...
 
 
-@njit(cache=True)
-def max_displacement2_kernel(n, y, y0):
-    """max_i |y_i - y0_i|^2 (serial: a reduction whose result must not depend on threads)."""
-    m = 0.0
-    for i in range(n):
-        dx = y[i, 0] - y0[i, 0]
-        dy = y[i, 1] - y0[i, 1]
-        dz = y[i, 2] - y0[i, 2]
-        d = (dx * dx + dy * dy) + dz * dz
-        if not d <= m:  # NaN propagates
-            m = d
-    return m
+class CellSearch(Binning):
+    """The CPU's binning: points sorted by the key of their cell (see the module docstring)."""
+
+    def bin(self, y: np.ndarray) -> None:
+        n = y.shape[0]
+        lo, inv_h, self.dims = cell_grid(y, self.rb)
+        keys = np.empty(n, dtype=np.int64)
+        cell_keys_kernel(n, y, lo, inv_h, self.dims, keys)
+        self.order = np.argsort(keys, kind="stable")
+        self.cells, cell_start = np.unique(keys[self.order], return_index=True)
+        self.cell_start = np.append(cell_start, n).astype(np.int64)
+        self.y = y
+        self.ys = np.ascontiguousarray(y[self.order])
+
+    def gather(self, cap: int, test: tuple) -> tuple[int, int]:
+        n = self.num_owned
+        pair_search_kernel(n, self.y, self.order, self.ys, self.cells, self.cell_start, self.dims, *test, cap, self.rows,
+                           self.row_visits, self.counts)
+        counts = self.counts[:n]
+        return (int(counts.max()) if n else 0), int(counts.sum())
+
+    def offsets(self) -> np.ndarray:
+        offsets = np.zeros(self.num_owned + 1, dtype=np.int64)
+        np.cumsum(self.counts[: self.num_owned], out=offsets[1:])
+        return offsets
 
 
-@njit(cache=True)
-def min_pair_distance2_kernel(num_owned, offsets, partners, y):
-    """Smallest squared distance between listed pairs (inf when there is none)."""
-    m = math.inf
-    for p in range(num_owned):
-        for q in range(offsets[p], offsets[p + 1]):
-            j = partners[q]
-            dx = y[j, 0] - y[p, 0]
-            dy = y[j, 1] - y[p, 1]
-            dz = y[j, 2] - y[p, 2]
-            d = (dx * dx + dy * dy) + dz * dz
-            if d < m:
-                m = d
-    return m
-
-
-def search_pairs(num_owned: int, y: np.ndarray, s: np.ndarray, gid: np.ndarray, rb: float, rs: float, bonds, bond_gid: np.ndarray,
-                 one_offsets: np.ndarray, one_gid: np.ndarray, cap: int, shortcut: tuple | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
-    """The pairs of every owned point (see the module docstring).
-
-    y, s: (n, 3) current and last-search positions of owned points then ghosts; gid (n,);
-    shortcut: (x (n, 3) reference positions, near2 (n,), block (n,), cross_block) for the bond
-    test (see ``pair_search_kernel``), or None.
-    Returns (offsets (num_owned + 1,) int64, partners int32, visits uint8, the capacity used,
-    the number of searches run: more than 1 when a row overflowed the capacity)."""
-    n = y.shape[0]
-    lo, inv_h, dims = cell_grid(y, rb)
-    keys = np.empty(n, dtype=np.int64)
-    cell_keys_kernel(n, y, lo, inv_h, dims, keys)
-    order = np.argsort(keys, kind="stable")
-    sorted_keys = keys[order]
-    cells, cell_start = np.unique(sorted_keys, return_index=True)
-    cell_start = np.append(cell_start, n).astype(np.int64)
-    ys = np.ascontiguousarray(y[order])
-    counts = np.zeros(num_owned, dtype=np.int64)
-    if shortcut is None:
-        shortcut = (y, np.full(n, -1.0), np.zeros(n, np.int64), True)
-    x, near2, block, cross_block = shortcut
+def build_pairs(binning: Binning, y: Any, test: tuple, cap: int) -> tuple[ContactPairs, int, int, int]:
+    """The pairs of every owned point on ``binning``'s target (see ``pair_visits`` for which):
+    y (n, 3) current positions, ``test`` as in :class:`Binning`, rows of ``cap`` pairs to start
+    with. Returns (the pairs, the capacity used, the gathers run: more than 1 when a row
+    overflowed, the largest row)."""
+    backend = binning.backend
+    binning.bin(y)
     passes = 0
     while True:
         passes += 1
-        buf = np.empty(num_owned * cap, dtype=np.int32)
-        buf_visits = np.empty(num_owned * cap, dtype=np.uint8)
-        pair_search_kernel(num_owned, y, s, gid, order, ys, cells, cell_start, dims, rb * rb, rs * rs,
-                           bonds.offsets, bonds.neighbors, bond_gid, one_offsets, one_gid, x, near2, block, bool(cross_block),
-                           cap, buf, buf_visits, counts)
-        largest = int(counts.max()) if num_owned else 0
+        binning.reserve(cap)
+        largest, total = binning.gather(cap, test)
         if largest <= cap:
             break
-        cap = max(largest + largest // 4, 2 * cap)  # overflow: grow and search again
-    offsets = np.zeros(num_owned + 1, dtype=np.int64)
-    np.cumsum(counts, out=offsets[1:])
-    partners = np.empty(int(offsets[-1]), dtype=np.int32)
-    visits = np.empty(int(offsets[-1]), dtype=np.uint8)
-    compact_kernel(num_owned, cap, buf, buf_visits, offsets, partners, visits)
-    return offsets, partners, visits, cap, passes
+        cap = max(largest + largest // 4, 2 * cap)  # overflow: grow and gather again
+    offsets = binning.offsets()
+    partners = backend.zeros(total, np.int32)
+    visits = backend.zeros(total, np.uint8)
+    n = binning.num_owned
+    if n:
+        backend.kernel(COMPACT)(0, n, (cap, binning.rows, binning.row_visits, offsets, partners, visits))
+    return ContactPairs(offsets, partners, visits), cap, passes, largest
+
+
+def search_pairs(num_owned: int, y: np.ndarray, s: np.ndarray, gid: np.ndarray, rb: float, rs: float, bonds, bond_gid: np.ndarray,
+                 one_offsets: np.ndarray, one_gid: np.ndarray, cap: int, shortcut: tuple | None = None,
+                 backend: Backend | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
+    """The pairs of every owned point on the CPU.
+
+    y, s: (n, 3) current and last-search positions of owned points then ghosts; gid (n,);
+    shortcut: (x (n, 3) reference positions, near2 (n,), block (n,), cross_block) for the bond
+    test (see ``pair_visits``), or None; ``backend``: the CPU backend of the copy into CSR (the
+    default one when None).
+    Returns (offsets (num_owned + 1,) int64, partners int32, visits uint8, the capacity used,
+    the number of searches run: more than 1 when a row overflowed the capacity)."""
+    if backend is None:
+        from ..kernels import default_backend
+
+        backend = default_backend()
+    n = y.shape[0]
+    if shortcut is None:
+        shortcut = (y, np.full(n, -1.0), np.zeros(n, np.int64), True)
+    x, near2, block, cross_block = shortcut
+    test = (s, gid, x, near2, block, bool(cross_block), rb * rb, rs * rs, bonds.offsets, bonds.neighbors, bond_gid, one_offsets, one_gid)
+    pairs, cap, passes, _ = build_pairs(CellSearch(backend, num_owned, rb), y, test, cap)
+    return pairs.offsets, pairs.partners, pairs.visits, cap, passes

@@ -22,14 +22,16 @@ import math
 from typing import Any
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 from pydantic import Field, field_validator
 
 from ..core.interfaces import VISIT_FROM_PARTNER, VISIT_FROM_POINT, ContactModel, ContactPairs, ContactState
 from ..core.errors import InstabilityError
 from ..core.params import ModelParams
+from ..core.traversal import Backend, PointUpdate
 
 PI = 3.141592653589793
+BIG = (1 << 63) - 1
 
 
 def _no_horizon(value: Any) -> Any:
@@ -100,64 +102,71 @@ def _visit_term(p, j, delta, y, v, volume, rc, rc2, k, mu):
     return True, nx + 0.0, ny + 0.0, nz + 0.0
 
 
-# not a loop law: each point passes over its pair row several times, in Peridigm's scatter order (per block, by gid)
-@njit(cache=True, parallel=True, error_model="numpy")
-def short_range_force_kernel(num_owned, offsets, partners, visits, gid, block, horizon, y, v, volume, rc, k, mu, out):
-    """out[p] += the contact force density on every owned point p (gather; see the module
-    docstring for the order of the sums). Shapes: offsets (num_owned + 1,); partners, visits
-    (num_pairs,); gid, block, horizon, volume (n,); y, v (n, 3); out (num_owned, 3)."""
-    rc2 = rc * rc
-    big = np.iinfo(np.int64).max
-    for p in prange(num_owned):
-        lo = offsets[p]
-        hi = offsets[p + 1]
-        if lo == hi:
-            continue
-        bp = block[p]
-        gp = gid[p]
-        fx = 0.0
-        fy = 0.0
-        fz = 0.0
-        cur = -1
-        while True:  # one accumulator per block of the visiting point, blocks in order
-            nb = bp if bp > cur else big
-            for q in range(lo, hi):
-                b = block[partners[q]]
-                if cur < b < nb:
-                    nb = b
-            if nb == big:
+@njit(cache=True, inline="always")
+def short_range_row(p, lo, hi, partners, visits, gid, block, horizon, y, v, volume, rc, rc2, k, mu):
+    """The contact force density on point p (M L^-2 T^-2) from its pairs partners[lo:hi],
+    summed in Peridigm's scatter order (see the module docstring). Returns (fx, fy, fz)."""
+    fx = 0.0
+    fy = 0.0
+    fz = 0.0
+    if lo == hi:
+        return fx, fy, fz
+    bp = block[p]
+    gp = gid[p]
+    cur = -1
+    while True:  # one accumulator per block of the visiting point, blocks in order
+        nb = bp if bp > cur else BIG
+        for q in range(lo, hi):
+            b = block[partners[q]]
+            if cur < b < nb:
+                nb = b
+        if nb == BIG:
+            break
+        cur = nb
+        ax = 0.0
+        ay = 0.0
+        az = 0.0
+        for phase in range(3):
+            # phase 0: visits of partners before p; 1: p's own visits; 2: partners after p
+            if bp != cur and phase != 0:
                 break
-            cur = nb
-            ax = 0.0
-            ay = 0.0
-            az = 0.0
-            for phase in range(3):
-                # phase 0: visits of partners before p; 1: p's own visits; 2: partners after p
-                if bp != cur and phase != 0:
-                    break
-                for q in range(lo, hi):
-                    j = partners[q]
-                    if phase == 1:
-                        if not visits[q] & VISIT_FROM_POINT:
-                            continue
-                        delta = horizon[p]
-                    else:
-                        if block[j] != cur or not visits[q] & VISIT_FROM_PARTNER:
-                            continue
-                        if bp == cur and (gid[j] > gp) != (phase == 2):
-                            continue
-                        delta = horizon[j]
-                    active, tx, ty, tz = _visit_term(p, j, delta, y, v, volume, rc, rc2, k, mu)
-                    if active:
-                        ax += tx
-                        ay += ty
-                        az += tz
-            fx += ax
-            fy += ay
-            fz += az
-        out[p, 0] += fx
-        out[p, 1] += fy
-        out[p, 2] += fz
+            for q in range(lo, hi):
+                j = partners[q]
+                if phase == 1:
+                    if not visits[q] & VISIT_FROM_POINT:
+                        continue
+                    delta = horizon[p]
+                else:
+                    if block[j] != cur or not visits[q] & VISIT_FROM_PARTNER:
+                        continue
+                    if bp == cur and (gid[j] > gp) != (phase == 2):
+                        continue
+                    delta = horizon[j]
+                active, tx, ty, tz = _visit_term(p, j, delta, y, v, volume, rc, rc2, k, mu)
+                if active:
+                    ax += tx
+                    ay += ty
+                    az += tz
+        fx += ax
+        fy += ay
+        fz += az
+    return fx, fy, fz
+
+
+def _short_range_force(p, args):
+    """out[p] += the contact force density on owned point p (``short_range_row``); args
+    (offsets, partners, visits, gid, block, horizon, y, v, volume, rc, k, mu, out). Shapes:
+    offsets (num_owned + 1,); partners, visits (num_pairs,); gid, block, horizon, volume (n,);
+    y, v (n, 3); out (num_owned, 3)."""
+    offsets, partners, visits, gid, block, horizon, y, v, volume, rc, k, mu, out = args
+    fx, fy, fz = short_range_row(p, offsets[p], offsets[p + 1], partners, visits, gid, block, horizon, y, v, volume, rc, rc * rc, k, mu)
+    out[p, 0] += fx
+    out[p, 1] += fy
+    out[p, 2] += fz
+
+
+#: the force of every owned point, a gather over its row: the same law on every backend
+SHORT_RANGE_FORCE = PointUpdate(_short_range_force)
 
 
 # not a loop law: one running sum over every pair of every point (a global reduction in serial order)
@@ -187,7 +196,7 @@ class ShortRangeForce(ContactModel):
 
     name = "Short Range Force"
     Params = ShortRangeForceParams
-    devices = frozenset({"cpu", "gpu"})  # peridyn.gpu.contact
+    devices = frozenset({"cpu", "gpu"})  # force_on runs on either backend
 
     def __init__(self, params: ModelParams, *, options: dict[str, Any] | None = None) -> None:
         super().__init__(params, options=options)
@@ -202,12 +211,19 @@ class ShortRangeForce(ContactModel):
             return (18.0 * self.params.spring_constant) / (PI * np.asarray(horizon, float) ** 5)
 
     def force(self, pairs: ContactPairs, state: ContactState, out: np.ndarray) -> None:
-        p = self.params
-        short_range_force_kernel(
-            state.num_owned, pairs.offsets, pairs.partners, pairs.visits, state.gid, state.block, state.horizon,
-            state.y, state.v, state.volume, float(p.contact_radius), float(p.spring_constant), self.mu, out,
-        )
+        from ..kernels import default_backend
 
+        self.force_on(default_backend(), pairs, state, out)
+
+    def force_on(self, backend: Backend, pairs: ContactPairs, state: ContactState, out: Any) -> None:
+        """``force`` with the pairs, the state and ``out`` (num_owned, 3) on ``backend`` (a GPU's
+        device arrays, say): the ``SHORT_RANGE_FORCE`` law run there."""
+        p = self.params
+        if state.num_owned:
+            backend.kernel(SHORT_RANGE_FORCE)(0, state.num_owned, (
+                pairs.offsets, pairs.partners, pairs.visits, state.gid, state.block, state.horizon, state.y, state.v, state.volume,
+                float(p.contact_radius), float(p.spring_constant), float(self.mu), out,
+            ))
 
     def potential_energy(self, pairs: ContactPairs, state: ContactState) -> float:
         p = self.params

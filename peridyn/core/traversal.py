@@ -145,11 +145,16 @@ class PointReduction:
     partner). Each backend sums in a fixed order that does not depend on its thread count (the
     CPU backends in item order on one thread; a GPU in per-block trees), so a run gives the same
     sums every time and the CPU's bits on every CPU thread count. Kernel:
-    ``kernel(start, stop, args, out)``."""
+    ``kernel(start, stop, args, out)``.
+
+    ``combine`` "max" or "min" instead of "sum": the largest or smallest term (-inf or inf
+    over no items; a NaN term is passed over, so a term that must count says so itself, e.g.
+    as inf), the same on every target and thread count since neither depends on order."""
 
     term: Callable
     width: int = 1
     allocates: bool = False
+    combine: str = "sum"
 
 
 #: laws with a bond loop (``kernel(start, stop, offsets, neighbors, zeta, y, args, out)``)

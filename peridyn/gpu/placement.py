@@ -34,10 +34,11 @@ class DevicePlacement:
             sim.state.acceleration = np.zeros((sim.num_local, 3))
         self.acceleration = backend.asarray(sim.state.acceleration)
         self._contact = None
-        if sim.contact is not None:
-            from .contact import DeviceContact
+        if sim.contact is not None:  # the manager's schedule on the device arrays, the GPU's binning
+            from .pair_search import BucketSearch
 
-            self._contact = DeviceContact(sim.contact, self.model)
+            c = sim.contact
+            self._contact = c.place(backend, self.fields, self.model.bonds, BucketSearch(backend, c.num_owned, c.rb))
 
     @property
     def contact(self) -> StepContact | None:

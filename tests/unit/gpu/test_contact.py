@@ -1,6 +1,7 @@
-"""Short Range Force contact on the GPU (peridyn.gpu.contact) against the CPU's ContactManager:
-the same pairs, the same search and rebuild schedule, the same contact force densities, on two
-copies of one model driven through the same positions and velocities step by step. The runs use
+"""Short Range Force contact placed on the GPU (``ContactManager.place`` with the GPU's binning,
+peridyn.gpu.pair_search) against the CPU's ContactManager: the same pairs, the same search and
+rebuild schedule, the same contact force densities, on two copies of one model driven through
+the same positions and velocities step by step. The runs use
 numba-cuda's simulator (tests/conftest.py): there the arithmetic is the CPU's and the forces are
 equal; on a GPU (``NUMBA_ENABLE_CUDASIM=0``) the bound is round-off, 1e-12 of the largest value
 (fused multiply-adds). Also: every kernel compiles to PTX for a real GPU, without a device."""
@@ -45,12 +46,13 @@ def two_boxes(*, gap=0.3, rc=0.8, rs=2.0, freq=3, mu=0.3, model="Short Range For
 
 def drive(tree: dict, *, steps: int, dt: float, speed: float, jitter: float, capacity: int | None = None, seed: int = 3,
           shortcut: bool = True):
-    """Step the CPU ContactManager and DeviceContact of two copies of ``tree``'s model through
-    the same positions (the boxes closing at 2 x ``speed`` along x, plus random offsets) and
-    velocities; assert equal pairs, statistics and forces at every step. ``shortcut=False``: the
-    GPU looks every candidate up in the bond lists (no reference-distance shortcut). Returns (the
-    largest contact force density of each step, the CPU manager, the DeviceContact)."""
-    from peridyn.gpu.contact import DeviceContact
+    """Step the CPU ContactManager and the same manager placed on the device, of two copies of
+    ``tree``'s model, through the same positions (the boxes closing at 2 x ``speed`` along x,
+    plus random offsets) and velocities; assert equal pairs, statistics and forces at every
+    step. ``shortcut=False``: the GPU looks every candidate up in the bond lists (no
+    reference-distance shortcut). Returns (the largest contact force density of each step, the
+    CPU manager, the placed one)."""
+    from peridyn.gpu.pair_search import BucketSearch
     from peridyn.gpu.state import DeviceModel
     from peridyn.kernels.numba_cuda import CudaBackend
 
@@ -60,8 +62,9 @@ def drive(tree: dict, *, steps: int, dt: float, speed: float, jitter: float, cap
         mc.capacity = mg.capacity = capacity
     if not shortcut:
         mg.near2 = np.full(sim_g.num_owned, -1.0)
-    dev = DeviceModel(sim_g, CudaBackend())
-    dc = DeviceContact(mg, dev)
+    backend = CudaBackend()
+    dev = DeviceModel(sim_g, backend)
+    assert mg.place(backend, dev.fields, dev.bonds, BucketSearch(backend, mg.num_owned, mg.rb)) is mg
     n = sim_c.num_owned
     x = sim_c.fields["Model_Coordinates"][:n].copy()
     left = sim_c.block_index[:n] == 0
@@ -73,7 +76,7 @@ def drive(tree: dict, *, steps: int, dt: float, speed: float, jitter: float, cap
         t = step * dt
         if step > 0:
             mc.begin_step(step)
-            dc.begin_step(step)
+            mg.begin_step(step)
         v = v0 + rng.normal(scale=jitter * max(speed, 1.0), size=(n, 3))
         y = x + v0 * t + rng.normal(scale=jitter, size=(n, 3))
         for sim in (sim_c, sim_g):
@@ -85,11 +88,13 @@ def drive(tree: dict, *, steps: int, dt: float, speed: float, jitter: float, cap
         f_c = base.copy()
         f_g = dev.backend.asarray(base)
         mc.add_force(f_c, t, step)
-        dc.add_force(f_g, t, step)
-        pairs = dc.pairs()
+        mg.add_force(f_g, t, step)
+        mg.to_host()
+        pairs = mg.pairs
         assert np.array_equal(pairs.offsets, mc.pairs.offsets), step
         assert np.array_equal(pairs.partners, mc.pairs.partners), step
         assert np.array_equal(pairs.visits, mc.pairs.visits), step
+        assert np.array_equal(mg.y_build, mc.y_build) and np.array_equal(mg.s, mc.s), step
         assert {k: mg.stats[k] for k in STATS} == {k: mc.stats[k] for k in STATS}, step
         fc_c = sim_c.fields["Contact_Force_Density"][:n]
         fc_g = dev.fields["Contact_Force_Density"].copy_to_host()[:n]
@@ -97,17 +102,17 @@ def drive(tree: dict, *, steps: int, dt: float, speed: float, jitter: float, cap
         np.testing.assert_allclose(fc_g, fc_c, rtol=0, atol=RTOL * scale, err_msg=f"step {step}")
         np.testing.assert_allclose(f_g.copy_to_host(), f_c, rtol=0, atol=RTOL * max(scale, 1.0), err_msg=f"step {step}")
         largest.append(scale)
-    s_c, s_g = mc.summary(), dc.summary()
+    s_c, s_g = mc.summary(), mg.summary()
     for key in STATS + ("min_distance", "min_distance_time", "penetration"):
         assert s_g[key] == pytest.approx(s_c[key], rel=RTOL), key
     sim_g.fields["Coordinates"][:n] = sim_c.fields["Coordinates"][:n]
-    assert dc.potential_energy() == pytest.approx(mc.potential_energy(), rel=max(RTOL, 1e-15))
-    return np.array(largest), mc, dc
+    assert mg.potential_energy() == pytest.approx(mc.potential_energy(), rel=max(RTOL, 1e-15))
+    return np.array(largest), mc, mg
 
 
 def test_two_approaching_boxes_with_friction_and_searches():
     """Search Frequency 3, friction, row capacity 1 (every build overflows and grows)."""
-    largest, mc, dc = drive(two_boxes(), steps=7, dt=0.004, speed=10.0, jitter=0.02, capacity=1)
+    largest, mc, mg = drive(two_boxes(), steps=7, dt=0.004, speed=10.0, jitter=0.02, capacity=1)
     assert (largest > 0).all()  # in contact from step 0 (0.58 apart, R_c 0.8)
     assert mc.stats["searches"] == 3 and mc.stats["overflows"] >= 1 and mc.model.mu == 0.3
 
@@ -116,8 +121,8 @@ def test_a_skin_rebuild_mid_run_and_time_dependent_friction():
     """1.5 apart at the start, closing at 2 x 25: the short list is rebuilt by the skin rule (no
     search is due), and contact starts mid-run; the friction coefficient grows with t."""
     tree = two_boxes(gap=1.5, rs=3.0, freq=100, model="Time Dependent Short Range Force", mu="0.1 + 50.0*t")
-    largest, mc, dc = drive(tree, steps=8, dt=0.004, speed=25.0, jitter=0.01)
-    assert isinstance(mc.model, TimeDependentShortRangeForce) and dc.model.mu == pytest.approx(0.1 + 50.0 * 8 * 0.004)
+    largest, mc, mg = drive(tree, steps=8, dt=0.004, speed=25.0, jitter=0.01)
+    assert isinstance(mc.model, TimeDependentShortRangeForce) and mg.model.mu == pytest.approx(0.1 + 50.0 * 8 * 0.004)
     assert mc.stats["searches"] == 1 and mc.stats["builds"] >= 3
     assert largest[0] == 0.0 and largest[-1] > 0.0
 
@@ -125,7 +130,7 @@ def test_a_skin_rebuild_mid_run_and_time_dependent_friction():
 def test_pairs_beyond_the_search_radius_at_the_last_search_do_not_touch():
     """1.58 apart at set-up with R_s = 1: no pair across the gap is listed until the search at
     step 6, although the boxes are closer than R_c from step 5 on (Peridigm's frozen lists)."""
-    largest, mc, dc = drive(two_boxes(gap=1.5, rs=1.0, freq=6), steps=8, dt=0.004, speed=25.0, jitter=0.002)
+    largest, mc, mg = drive(two_boxes(gap=1.5, rs=1.0, freq=6), steps=8, dt=0.004, speed=25.0, jitter=0.002)
     assert mc.stats["searches"] == 2
     assert (largest[:6] == 0.0).all() and largest[6] > 0.0
 
@@ -136,9 +141,9 @@ def test_bonded_points_within_the_contact_radius_do_not_touch(shortcut):
     1 apart are bonded and never in contact, diagonal neighbours of block 2 (1.41 apart) are not
     bonded and touch, and pairs bonded one way only get one visit."""
     tree = two_boxes(gap=0.2, rc=1.5, rs=2.5, freq=2, mu=0.2, omit=False, horizons=(3.0, 1.2))
-    largest, mc, dc = drive(tree, steps=4, dt=0.002, speed=5.0, jitter=0.01, shortcut=shortcut)
+    largest, mc, mg = drive(tree, steps=4, dt=0.002, speed=5.0, jitter=0.01, shortcut=shortcut)
     assert (largest > 0).all()
-    pairs = dc.pairs()
+    pairs = mg.pairs
     sim = mc.sim
     nl = sim.bonds
     bonded = 0
@@ -176,7 +181,7 @@ PTX_SCRIPT = textwrap.dedent(
         compute_capability = (9, 0)
 
     cuda_dispatcher.get_current_device = lambda: NoDevice()
-    from peridyn.gpu import contact as C
+    from peridyn.gpu import pair_search as C
 
     f8, i8, b1 = numba.float64, numba.int64, numba.boolean
     v2, v1, l1 = f8[:, ::1], f8[::1], i8[::1]
@@ -187,12 +192,8 @@ PTX_SCRIPT = textwrap.dedent(
         "scan_sums": (l1, i8),
         "scan_apply": (l1, i8, i8, l1, l1),
         "bucket_scatter": (i8, l1, l1, l1, l1),
-        "gather_pairs": (i8, v2, v2, l1, f8, i8, l1, l1, f8, f8, l1, i4, l1, l1, l1, v2, v1, l1, b1, i8, i4, u1, l1, l1),
-        "max_displacement2": (i8, v2, v2, v1),
-        "copy_rows": (i8, v2, v2),
+        "gather_pairs": (i8, v2, f8, i8, l1, l1, v2, l1, v2, v1, l1, b1, f8, f8, l1, i4, l1, l1, l1, i8, i4, u1, l1, l1),
         "fill_int": (l1, i8),
-        "short_range_force": (i8, i8, l1, i4, u1, l1, l1, v1, v2, v2, v1, f8, f8, f8, v2, v2, v1),
-        "track_min_distance": (v1, v1, f8),
     }
     done = []
     for name, sig in sigs.items():

@@ -110,6 +110,18 @@ SCRIPT = textwrap.dedent(
     b.kernel(S.SET_DIFFERENCE)(0, n, (pts, s1, s1, s1))
     b.kernel(S.ADD_SCALED)(0, n, (pts, 0.5, v, v))
     b.kernel(S.PRESCRIBED_DISPLACEMENT)(0, n, (pts, 1, s1, s1, 0.5, v, v, e))
+    # contact's laws (the pair search's binning: tests/unit/gpu/test_contact.py)
+    from peridyn.contact import pair_laws as C
+    from peridyn.contact.short_range import SHORT_RANGE_FORCE
+
+    offsets, rows, bits, ids = np.arange(n + 1, dtype=np.int64), np.zeros(n, np.int32), np.zeros(n, np.uint8), np.arange(n, dtype=np.int64)
+    b.kernel(C.COMPACT)(0, n, (1, rows, bits, offsets, rows, bits))
+    b.kernel(C.MAX_DISPLACEMENT2)(0, n, (v, v), np.zeros(1))
+    b.kernel(C.MIN_PAIR_DISTANCE2)(0, n, (offsets, rows, v), np.zeros(1))
+    b.kernel(C.TRACK_MIN_DISTANCE)(0, 1, (np.zeros(1), np.zeros(2), 0.5))
+    b.kernel(C.COPY_VECTORS)(0, n, (v, v))
+    b.kernel(C.ADD_VECTORS)(0, n, (v, v))
+    b.kernel(SHORT_RANGE_FORCE)(0, n, (offsets, rows, bits, ids, ids, s1, v, v, s1, 0.5, 1.0, 0.2, v))
     print(json.dumps({"compiled": compiled}))
     '''
 )
@@ -128,6 +140,7 @@ def test_every_gpu_kernel_of_the_explicit_step_compiles_to_ptx(tmp_path):
     for expected in ("PointSum:stretch_damage_term/point_damage/broken_gate", "PointSum:dilatation_term/thermal_shift/dilatation_finish",
                      "PointMap:coefficients_of_point", "PairForce:pair_force/coefficients_point", "PairForce:pair_force",
                      "PointReduction:_step_sums", "PointUpdate:_prescribed_displacement", "PointUpdate:_accelerate",
-                     "PointUpdate:_add_scaled"):
+                     "PointUpdate:_add_scaled", "PointUpdate:_short_range_force", "PointReduction:_row_min_distance2",
+                     "PointReduction:_displacement2", "PointUpdate:_compact", "PointUpdate:_track_min_distance"):
         assert expected in names, sorted(names)
 

@@ -122,3 +122,29 @@ def test_a_reduction_has_the_same_bits_on_every_cpu_backend():
                 s += v[i, c] * v[i, c]
         serial += 0.5 * mass[i] * s
     assert totals == [serial] * len(BACKENDS)
+
+
+@pytest.mark.parametrize("make", backends())
+@pytest.mark.parametrize("n", [0, 1, 5, 3000])
+def test_a_largest_and_a_smallest_term_on_every_backend(make, n):
+    """``combine="max"`` and ``"min"`` (contact's displacement and distance checks): the largest
+    and smallest terms, a NaN counted as infinity by the displacement term itself, -inf and inf
+    over no items."""
+    from peridyn.contact import pair_laws as C
+
+    backend = make()
+    rng = np.random.default_rng(n + 3)
+    y, y0 = rng.standard_normal((n, 3)), rng.standard_normal((n, 3))
+    d2 = ((y - y0) ** 2).sum(axis=1)
+    out = np.zeros(1)
+    run(backend, C.MAX_DISPLACEMENT2, n, (y, y0), out)
+    assert out[0] == (d2.max() if n else -np.inf)
+    if n > 1:
+        y[n // 2, 1] = np.nan
+        run(backend, C.MAX_DISPLACEMENT2, n, (y, y0), out)
+        assert out[0] == np.inf
+    offsets = np.arange(n + 1, dtype=np.int64)  # row p: the pair (p, n - 1 - p)
+    partners = np.arange(n, dtype=np.int32)[::-1].copy()
+    run(backend, C.MIN_PAIR_DISTANCE2, n, (offsets, partners, y0), out)
+    pair = ((y0[::-1] - y0) ** 2).sum(axis=1)
+    assert out[0] == (pair.min() if n else np.inf)

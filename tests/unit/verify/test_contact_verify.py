@@ -99,12 +99,14 @@ def test_a_spring_constant_not_applied_fails(monkeypatch):
     """The kernel applies a tenth of the deck's Spring Constant: the force on a point no longer
     follows the law, and the penetration (3.4 times larger: more of the sphere's points reach each
     block point) takes the stiffness error past its band."""
-    from peridyn.contact.short_range import ShortRangeForce, short_range_force_kernel
+    from peridyn.contact.short_range import SHORT_RANGE_FORCE, ShortRangeForce
+    from peridyn.kernels import default_backend
 
     def soft(self, pairs, state, out):
         p = self.params
-        short_range_force_kernel(state.num_owned, pairs.offsets, pairs.partners, pairs.visits, state.gid, state.block, state.horizon,
-                                 state.y, state.v, state.volume, float(p.contact_radius), 0.1 * float(p.spring_constant), self.mu, out)
+        default_backend().kernel(SHORT_RANGE_FORCE)(0, state.num_owned, (
+            pairs.offsets, pairs.partners, pairs.visits, state.gid, state.block, state.horizon, state.y, state.v, state.volume,
+            float(p.contact_radius), 0.1 * float(p.spring_constant), self.mu, out))
 
     monkeypatch.setattr(ShortRangeForce, "force", soft)
     points, checks = ladder(Hertz(), METHOD, [12.0])
