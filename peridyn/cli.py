@@ -146,7 +146,7 @@ def cmd_check(args) -> int:
         print(f"  solver {entry.section}: {entry.method}{planned}")
     for w in sim.outputs.writers:
         print(f"  output {w.entry.section}: {w.path.name}, every {w.frequency} step(s), {len(w.names)} variable(s)")
-    if getattr(deck, "restart", None) is not None:
+    if deck.restart is not None:
         r = deck.restart
         every = f"every {r.restart_frequency} Verlet step(s), " if r.restart_frequency else ""
         print(f"  restart: checkpoints in {r.folder}/ {every}after each solver section and on SIGTERM/SIGINT, the latest {r.keep} kept")

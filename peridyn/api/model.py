@@ -156,12 +156,9 @@ class Model:
             return float(self.sim.state.time_step)
         plan = self._solvers()
         solver = plan[0][0]
-        if hasattr(solver, "time_step"):
-            return float(solver.time_step(self.sim, warn=False)[0])
-        fixed = [getattr(v, "fixed_dt", None) for v in vars(solver.params).values()]
-        fixed = [f for f in fixed if isinstance(f, (int, float)) and not isinstance(f, bool)]
-        if fixed:
-            return float(fixed[0])
+        dt = solver.planned_time_step(self.sim)
+        if dt is not None:
+            return float(dt)
         raise ArgumentError(f"{solver.section}: {type(solver).__name__} chooses its steps as it runs; its time step is known after the "
                             "first step", path=("Model.dt",), fix="read model.dt after step() or run(until=...)")
 

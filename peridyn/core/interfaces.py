@@ -92,6 +92,8 @@ class Material(ABC):
     #: (Peridigm's Multiphysics materials): a deck with top-level ``Multiphysics: 1`` needs such
     #: a material in every block, and such a material needs that flag
     multiphysics: ClassVar[bool] = False
+    #: solves the nonlocal diffusion equation (``ImplicitDiffusion``): supplies ``flux_jacobian``
+    diffusion: ClassVar[bool] = False
     #: a multiphysics material's bond field (``Relation.BOND``, one of its ``fields()``) where
     #: ``force_state`` writes the fluid flow q_b of each of its bonds b = i->j (pressure per time
     #: per volume squared); the coupled solver gathers it into ``Flux_Density`` as
@@ -548,6 +550,11 @@ class Compute(ABC):
     def compute(self, sim: "Simulation") -> None:
         """Fill the output fields from the current (NP1) state."""
 
+    def check(self, sim: "Simulation") -> list[str]:
+        """Problems that make this compute meaningless for the model (each becomes one input
+        error at set-up, naming its Compute Class Parameters entry); none by default."""
+        return []
+
 
 # ------------------------------------------------------------------------------------------------
 # Solvers
@@ -568,6 +575,18 @@ class Solver(ABC):
     @abstractmethod
     def run(self, sim: "Simulation") -> None:
         """Advance ``sim`` from the solver's initial to its final time, writing output."""
+
+    @classmethod
+    def tangent_request(cls, params: ModelParams) -> str | None:
+        """The tangent the section asks for: "full" or "block diagonal" when the deck asks for
+        one, "default" (full unless another section asks for a block-diagonal one), None (the
+        default) for a solver without a tangent."""
+        return None
+
+    def planned_time_step(self, sim: "Simulation") -> float | None:
+        """The time step (T) the section will take, known before it runs (the API's ``dt``
+        before the first step); None for a solver that chooses its steps as it runs."""
+        return None
 
     def planned_steps(self, sim: "Simulation") -> int | None:
         """How many steps (time steps or load steps) ``run`` will take, computed without running

@@ -132,7 +132,7 @@ class OutputManager:
             add_compute(entry.name, obj)
         raise_collected(errors)
         for entry in deck.computes:
-            problems = getattr(self.computes[entry.name], "check", lambda sim: [])(sim)
+            problems = self.computes[entry.name].check(sim)
             for p in problems:
                 errors.append(InputError(p, file=deck.file, path=entry.path))
         raise_collected(errors)
@@ -201,9 +201,6 @@ class OutputManager:
     def blocks_with(self, name: str) -> list[bool]:
         """Truth table row: which blocks have the element variable ``name``."""
         var = self.variables[name]
-        owners = getattr(var.compute, "blocks", None)
-        if owners is not None:
-            return [bool(owners(self.sim, blk)) for blk in self.sim.blocks]
         if var.compute is None and name not in STANDARD_FIELDS:
             return [
                 any(s.name == name for s in blk.material.fields() + blk.material.output_fields() + (blk.damage.fields() if blk.damage is not None else []))

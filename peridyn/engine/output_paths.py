@@ -218,7 +218,7 @@ def check_run_paths(sim) -> None:
         if what:
             errors.append(InputError(f"{str(path)!r} is {what}, and Construct Interfaces writes the file {INTERFACES_FILE} there",
                                      file=deck.file, path=("Discretization", "Construct Interfaces"), fix="remove or rename it, or give another --output-dir"))
-    params = getattr(deck, "restart", None)
+    params = deck.restart
     if params is not None:
         errors.extend(_restart_folder_errors(sim, params))
     raise_collected(errors)

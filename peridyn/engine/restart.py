@@ -481,7 +481,7 @@ def attach(sim, restart_arg: str | None) -> Checkpoints | None:
     """The checkpoints (the caller sets ``sim.restart``) of a deck with a Restart section or a run given ``--restart``
     (``restart_arg``: a checkpoint path, or "latest"); load the checkpoint. Collective only
     through the contact pair rebuild."""
-    params = getattr(sim.deck, "restart", None)
+    params = sim.deck.restart
     if params is None and restart_arg is None:
         return None
     cp = Checkpoints(sim, params)

@@ -178,6 +178,8 @@ def quadrature_weights_kernel(start, stop, offsets, neighbors, x, zeta, volume, 
 class Diffusion(Material):
     """Peridigm's ``Diffusion`` material: the flux divergence Q of the nonlocal heat equation."""
 
+    diffusion = True
+
     name = "Diffusion"
     Params = DiffusionParams
     ghost_inputs = ("Temperature",)

@@ -43,6 +43,9 @@ class Verlet(Solver):
     #: the placement of the run in progress (``steps``), None before it starts
     placed: Placement | None = None
 
+    def planned_time_step(self, sim) -> float:
+        return self.time_step(sim, warn=False)[0]
+
     def time_step(self, sim, *, warn: bool = True) -> tuple[float, float]:
         """(dt used, critical estimate)."""
         p = self.params.verlet

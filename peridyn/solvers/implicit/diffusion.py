@@ -458,7 +458,7 @@ class ImplicitDiffusionRun:
 
     def _check_materials(self) -> None:
         sim = self.sim
-        bad = [blk for blk in sim.blocks if not hasattr(blk.material, "flux_jacobian")]
+        bad = [blk for blk in sim.blocks if not blk.material.diffusion]
         if bad:
             blk = bad[0]
             raise InputError(

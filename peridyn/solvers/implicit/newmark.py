@@ -77,6 +77,9 @@ class Implicit(Solver):
     Params = ImplicitSection
     implicit = True
 
+    def planned_time_step(self, sim) -> float:
+        return float(self.params.implicit.fixed_dt)
+
     @classmethod
     def tangent_request(cls, params) -> str:
         """The tangent this solver allocates (see Simulation._rank_deficient_node_set)."""
