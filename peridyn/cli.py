@@ -471,9 +471,12 @@ def build_parser() -> argparse.ArgumentParser:
     common(pl)
     pl.set_defaults(func=cmd_plot)
 
-    vf = sub.add_parser("verify", help="run the verification problems: error against wall time, convergence rates, stable time steps")
+    from .verify.listing import ProblemListFormatter  # the problem list is read only when --help prints it
+
+    vf = sub.add_parser("verify", help="run the verification problems: error against wall time, convergence rates, stable time steps",
+                        formatter_class=ProblemListFormatter)
     vf.add_argument("--quick", action="store_true", help="the coarsest resolutions only (3 points per curve; a few minutes)")
-    vf.add_argument("--problems", nargs="+", metavar="NAME", help="run only these (default: all): wave-speed, force-convergence, verlet-energy, stability")
+    vf.add_argument("--problems", nargs="+", metavar="NAME", help="run only these (default: all; listed below)")
     vf.add_argument("--device", choices=("cpu", "gpu"), type=str.lower,
                     help="gpu: also run every method that has a GPU path on one NVIDIA GPU, as its own curve (needs peridyn[gpu])")
     vf.add_argument("--out", default="peridyn-verify", help="folder for results.json, report.md and the figures (default: ./peridyn-verify)")

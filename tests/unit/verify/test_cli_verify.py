@@ -81,3 +81,14 @@ def test_the_verlet_energy_gpu_curve_runs_its_model_on_the_gpu_backend():
         u_gpu, st_gpu = problem.run("Elastic Bond Based", 4, quick=True)
     assert st_gpu["device"] == "gpu" and st_cpu.get("device", "cpu") == "cpu"
     assert abs(u_gpu - u_cpu).max() <= 1e-12 * abs(u_cpu).max() and abs(u_cpu).max() > 0
+
+
+def test_help_lists_every_problem(capsys):
+    from peridyn.verify import PROBLEMS
+
+    with pytest.raises(SystemExit) as stop:
+        main(["verify", "--help"])
+    assert stop.value.code == 0
+    out = capsys.readouterr().out
+    listed = [line.split()[0] for line in out.split("problems (", 1)[1].splitlines()[1:] if line.startswith("  ") and not line.startswith("   ")]
+    assert listed == list(PROBLEMS)
