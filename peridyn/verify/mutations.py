@@ -84,12 +84,12 @@ MUTATIONS: tuple[Mutation, ...] = (
         "short-range-contact-x1.1", "the short-range force contact's force 9 k / (pi delta^4) per visit 10 % too large",
         (S("contact/short_range.py", "c = (9.0 * k) / ((((PI * delta) * delta) * delta) * delta)",
            "c = (9.9 * k) / ((((PI * delta) * delta) * delta) * delta)"),),
-        ("hertz",), area="contact",
+        ("hertz", "contact-step"), area="contact",
     ),
     Mutation(
         "contact-step-stiffness-x1.1", "the short-range contact's pair stiffness 18 k / (pi delta^5) in the stable-step estimate 10 % too large",
         (S("contact/short_range.py", "return (18.0 * self.params.spring_constant)", "return (19.8 * self.params.spring_constant)"),),
-        ("contact-stability",), area="time step",
+        ("contact-step", "contact-stability"), area="time step",
     ),
     Mutation(
         "penalty-contact-x1.1", "the penalty contact's constant 9 / pi 10 % too large",
