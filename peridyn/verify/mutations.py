@@ -102,6 +102,12 @@ MUTATIONS: tuple[Mutation, ...] = (
         ("verlet-energy",), area="solvers",
     ),
     Mutation(
+        "neo-hookean-linearised", "the neo-Hookean stress law's B = F F^T linearised to F + F^T - I (the same to first order in "
+        "the strain, not objective)",
+        (S("materials/correspondence/laws.py", "    B = F_new @ F_new.T\n", "    B = F_new + F_new.T - np.eye(3)\n"),),
+        ("rigid-rotation",),
+    ),
+    Mutation(
         "newmark-beta-x1.2", "Newmark's beta 1.2 times the deck's (0.3 for 1/4)",
         (S("solvers/implicit.py", "beta, gamma = ip.beta, ip.gamma", "beta, gamma = 1.2 * ip.beta, ip.gamma"),),
         ("newmark-energy",), area="solvers",
