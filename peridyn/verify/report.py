@@ -137,7 +137,8 @@ def write_report(state: dict[str, Any], out: Path, *, figures: bool = True) -> P
         f"- status: {state['status']}; {'**' + str(failed) + ' check(s) FAIL**' if failed else 'every check passes'}; "
         f"wall time {state['wall (s)']:.1f} s"
         + (f"; {state['known misses']} known miss(es), shown as FAIL (known: why) and not counted" if state.get("known misses") else ""),
-        f"- date: {state['date']}; peridyn {v['version']}" + (f", commit {v['commit']}" if v.get("commit") else ""),
+        f"- date: {state['date']}; peridyn {v['version']}" + (f", commit {v['commit']}" if v.get("commit") else "")
+        + (f" ({v['commit from']})" if v.get("commit from") else ""),
         f"- machine: {m['cpu']}, {m['cores']} cores ({m['usable cores']} usable, {m['numba threads']} numba threads); {m['platform']}, "
         f"Python {m['python']}" + (f"; GPU: {m['gpu']}" if m.get("gpu") else ""),
         "",

@@ -101,20 +101,58 @@ def machine() -> dict[str, Any]:
             "cores": os.cpu_count(), "usable cores": cores, "numba threads": threads}
 
 
+def _git_head(folder: Path) -> str | None:
+    """``git rev-parse HEAD`` in ``folder`` (None when it is not a checkout or git is missing)."""
+    if not (folder / ".git").exists():
+        return None
+    try:
+        p = subprocess.run(["git", "-C", str(folder), "rev-parse", "HEAD"], capture_output=True, text=True, timeout=10)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return (p.stdout.strip() or None) if p.returncode == 0 else None
+
+
+def _direct_url() -> dict[str, Any] | None:
+    """The installed distribution's PEP 610 record (``direct_url.json``: where pip installed it
+    from), None when there is none (an install from an index, or no metadata)."""
+    from importlib import metadata
+
+    try:
+        text = metadata.distribution("peridyn").read_text("direct_url.json")
+        return json.loads(text) if text else None
+    except (metadata.PackageNotFoundError, ValueError, OSError):
+        return None
+
+
 def peridyn_version() -> dict[str, Any]:
-    """peridyn's version and, in a git checkout, its commit (``git rev-parse HEAD``; None
-    elsewhere)."""
+    """peridyn's version, its commit and where the commit was read ("commit from"), in this order:
+    the git checkout the imported package lies in (an editable install or a source tree on the
+    path); for a non-editable install, its PEP 610 metadata: the commit pip recorded for an install
+    from a git URL (``vcs_info.commit_id``: exact), or the HEAD of the local folder it was
+    installed from when that is a checkout (its HEAD now, which may have moved since the
+    install: said so). None with the reason otherwise (an index install of a release records only
+    its version)."""
     from .. import __version__
 
-    commit = None
     here = Path(__file__).resolve().parents[2]
-    if (here / ".git").exists():
-        try:
-            p = subprocess.run(["git", "-C", str(here), "rev-parse", "HEAD"], capture_output=True, text=True, timeout=10)
-            commit = p.stdout.strip() or None if p.returncode == 0 else None
-        except (OSError, subprocess.SubprocessError):
-            commit = None
-    return {"version": __version__, "commit": commit}
+    commit = _git_head(here)
+    if commit:
+        return {"version": __version__, "commit": commit, "commit from": f"the git checkout at {here}"}
+    info = _direct_url() or {}
+    vcs = info.get("vcs_info") or {}
+    if vcs.get("commit_id"):
+        return {"version": __version__, "commit": vcs["commit_id"], "commit from": f"the install's metadata (installed from {info.get('url')})"}
+    url = str(info.get("url", ""))
+    if url.startswith("file://"):
+        from urllib.parse import unquote, urlparse
+
+        source = Path(unquote(urlparse(url).path))
+        commit = _git_head(source)
+        if commit:
+            return {"version": __version__, "commit": commit,
+                    "commit from": f"the HEAD now of the folder it was installed from ({source}); the install may be older"}
+    return {"version": __version__, "commit": None,
+            "commit from": "not known: installed without a record of its commit (install from a git URL or a checkout to have it)"}
 
 
 def peak_memory_mib() -> float:

@@ -202,3 +202,21 @@ def test_a_companion_curve_is_drawn_beside_each_method(tmp_path, monkeypatch):
     assert Run([WithCompanion()], tmp_path, quick=True).run() == ExitCode.OK
     assert load(tmp_path)["problems"][0]["companions"] == {"beside": ["beside error", "beside wall (s)"]}
     assert "a: beside (rate 2.00 in 1/n)" in drawn and "b: beside (rate 2.00 in 1/n)" in drawn
+
+
+def test_the_commit_of_a_non_editable_install_comes_from_its_metadata(monkeypatch, tmp_path):
+    """Outside a checkout the commit is pip's record of a git install (PEP 610 vcs_info), else the
+    HEAD of the checkout it was installed from, else None with the reason; each says its source."""
+    from peridyn.verify import runner
+
+    heads = {str(tmp_path): "f" * 40}
+    monkeypatch.setattr(runner, "_git_head", lambda folder: heads.get(str(folder)))
+    monkeypatch.setattr(runner, "_direct_url", lambda: {"url": "https://example.invalid/peridyn.git", "vcs_info": {"vcs": "git", "commit_id": "a" * 40}})
+    v = runner.peridyn_version()
+    assert v["commit"] == "a" * 40 and "metadata" in v["commit from"]
+    monkeypatch.setattr(runner, "_direct_url", lambda: {"url": tmp_path.as_uri(), "dir_info": {}})
+    v = runner.peridyn_version()
+    assert v["commit"] == "f" * 40 and "may be older" in v["commit from"]
+    monkeypatch.setattr(runner, "_direct_url", lambda: None)
+    v = runner.peridyn_version()
+    assert v["commit"] is None and "not known" in v["commit from"]
