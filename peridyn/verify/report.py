@@ -114,7 +114,9 @@ def _table(entry: dict[str, Any]) -> list[str]:
     for p in entry["points"]:
         row = [p["method"], _fmt(p["resolution"])] + ([_fmt(p.get("size")), _fmt(p.get("error"))] if curve else [])
         row += [_fmt(p.get("values", {}).get(k)) for k in extra]
-        row += [_fmt(p["wall (s)"]), _fmt(p["steps"]), f"{p['peak memory (MiB)']:.0f}"]
+        spread = p.get("wall spread (s)")
+        wall = _fmt(p["wall (s)"]) + (f" ({_fmt(spread[0])} .. {_fmt(spread[1])}, median of {p['wall runs']})" if spread else "")
+        row += [wall, _fmt(p["steps"]), f"{p['peak memory (MiB)']:.0f}"]
         if "failure" in p:
             row[-1] += f" (failed: {p['failure']})"
         lines.append("| " + " | ".join(_cell(c) for c in row) + " |")
@@ -143,7 +145,8 @@ def write_report(state: dict[str, Any], out: Path, *, figures: bool = True) -> P
         f"Python {m['python']}" + (f"; GPU: {m['gpu']}" if m.get("gpu") else ""),
         "",
         "Each point runs serially in one process; wall time is the point's own (set-up included unless its problem says "
-        "otherwise), peak memory the process's peak resident size so far (getrusage)."
+        "otherwise; a point of a curve under 0.1 s is run up to 5 times and its wall time is the median, the range of the "
+        "runs beside it), peak memory the process's peak resident size so far (getrusage)."
         + (f" Run under mpiexec with {state['ranks']} ranks, which shared out the points: each point's time was taken while "
            "the other ranks ran theirs on the same machine." if state.get("ranks", 1) > 1 else ""),
         "",

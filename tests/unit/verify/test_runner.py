@@ -220,3 +220,24 @@ def test_the_commit_of_a_non_editable_install_comes_from_its_metadata(monkeypatc
     monkeypatch.setattr(runner, "_direct_url", lambda: None)
     v = runner.peridyn_version()
     assert v["commit"] is None and "not known" in v["commit from"]
+
+
+def test_a_short_point_is_timed_as_the_median_of_repeats_with_its_spread(tmp_path):
+    from peridyn.verify import runner
+
+    class Tiny(Problem):
+        name, title, computes, reference, resolution_name = "tiny", "t", "c", "r", "n"
+        methods = ("a",)
+        calls = 0
+
+        def ladder(self, method, quick):
+            return [1.0]
+
+        def measure(self, method, resolution, quick):
+            Tiny.calls += 1
+            return Measurement(0.5, size=1.0)
+
+    point = Run([Tiny()], tmp_path, quick=True).point(Tiny(), "a", 1.0)
+    assert point["wall runs"] == Tiny.calls == runner.REPEATS and point["error"] == 0.5
+    lo, hi = point["wall spread (s)"]
+    assert lo <= point["wall (s)"] <= hi
