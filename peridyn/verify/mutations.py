@@ -15,7 +15,7 @@ MUTATIONS: tuple[Mutation, ...] = (
         (S(_EL, "return ((((3.0 * w) * keep) * z) * e) * volume[j]", "return ((((2.9 * w) * keep) * z) * e) * volume[j]"),
          S(_EL, "return ((3.0 * z) * (L - z)) * P[j, 5]", "return ((2.9 * z) * (L - z)) * P[j, 5]"),
          S(_EL, "return ((((3.0 * w) * (1.0 - d)) * z) * (L - z)) * P[j, 5]", "return ((((2.9 * w) * (1.0 - d)) * z) * (L - z)) * P[j, 5]")),
-        ("wave-speed", "dispersion", "lattice-constants", "poisson-ratio", "static-modulus"),
+        ("wave-speed", "dispersion", "lattice-constants", "poisson-ratio", "static-modulus", "confined-compression"),
     ),
     Mutation(
         "critical-step-x1.7", "the critical time-step estimate 1.7 times too large",

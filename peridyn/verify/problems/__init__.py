@@ -6,6 +6,7 @@ from .branching import GlassBranching
 from .brazilian import BrazilianDisk
 from .contact import ContactStability, Hertz
 from .contact_penalty import HertzPenalty
+from .confined import ConfinedCompression
 from .contact_step import ContactStep
 from .critical_stretch import CriticalStretch
 from .base import Check, Measurement, Problem
@@ -27,7 +28,7 @@ from .static import StaticModulus
 PROBLEMS: dict[str, type[Problem]] = {
     cls.name: cls
     for cls in (
-        WaveSpeed, Dispersion, LatticeConstants, ForceConvergence, VerletEnergy, NewmarkEnergy, Stability, ContactStability, ContactStep, ParallelAgreement, ExtremeCases, RigidRotation, StaticModulus,
+        WaveSpeed, Dispersion, LatticeConstants, ForceConvergence, VerletEnergy, NewmarkEnergy, Stability, ContactStability, ContactStep, ParallelAgreement, ExtremeCases, RigidRotation, ConfinedCompression, StaticModulus,
         PoissonRatio, Kirsch, DeltaConvergence, CriticalStretch, Griffith, JIntegral, KalthoffWinkler, GlassBranching, BrazilianDisk, Diffusion, ViscoelasticRelaxation, PlasticityUniaxial,
         Hertz, HertzPenalty,
     )
