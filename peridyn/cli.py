@@ -285,8 +285,10 @@ def cmd_verify(args) -> int:
     comm = get_comm()  # under mpiexec the ranks share out the points
     _setup_logging(args.verbose - args.quiet, comm.rank)
     command = ("peridyn verify" + (" --quick" if args.quick else "") + (" --device gpu" if args.device == "gpu" else "")
-               + (f" --problems {' '.join(args.problems)}" if args.problems else ""))
-    return run_verify(args.problems, Path(args.out), quick=args.quick, command=command, device=args.device or "cpu", comm=comm)
+               + (f" --problems {' '.join(args.problems)}" if args.problems else "") + (f" --material {args.material!r}" if args.material else "")
+               + (f" --compare {args.compare}" if args.compare else ""))
+    return run_verify(args.problems, Path(args.out), quick=args.quick, command=command, device=args.device or "cpu", comm=comm,
+                      material=args.material, compare=args.compare)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -370,9 +372,16 @@ def build_parser() -> argparse.ArgumentParser:
     common(pl)
     pl.set_defaults(func=cmd_plot)
 
-    vf = sub.add_parser("verify", help="run the verification problems: error against wall time, convergence rates, stable time steps")
+    from .verify.listing import ProblemListFormatter  # the problem list is read only when --help prints it
+
+    vf = sub.add_parser("verify", help="run the verification problems: error against wall time, convergence rates, stable time steps",
+                        formatter_class=ProblemListFormatter)
     vf.add_argument("--quick", action="store_true", help="the coarsest resolutions only (3 points per curve; a few minutes)")
-    vf.add_argument("--problems", nargs="+", metavar="NAME", help="run only these (default: all): wave-speed, force-convergence, verlet-energy, stability")
+    vf.add_argument("--problems", nargs="+", metavar="NAME", help="run only these (default: all; listed below)")
+    vf.add_argument("--material", metavar="NAME", help="run every problem that applies to this registered material (plugins included), "
+                                                     "each with its methods of that material only")
+    vf.add_argument("--compare", metavar="RESULTS.json", help="an earlier run's results.json: fail (exit 1) when a point's error moves "
+                                                              "beyond its tolerance (5 %% unless the problem says)")
     vf.add_argument("--device", choices=("cpu", "gpu"), type=str.lower,
                     help="gpu: also run every method that has a GPU path on one NVIDIA GPU, as its own curve (needs peridyn[gpu])")
     vf.add_argument("--out", default="peridyn-verify", help="folder for results.json, report.md and the figures (default: ./peridyn-verify)")

@@ -118,7 +118,7 @@ def run_problems(problems: Sequence[str], out: Path, *, root: Path | None = None
     if results.exists():
         state = json.loads(results.read_text(encoding="utf-8"))
         failed = [{k: c[k] for k in ("problem", "method", "what", "value", "band")}
-                  for e in state["problems"] for c in e["checks"] if not c["passed"]]
+                  for e in state["problems"] for c in e["checks"] if not c["passed"] and not c.get("known")]
     tail = (p.stdout + p.stderr)[-2000:]
     log.debug("%s: rc %d in %.1f s, %d failed checks", " ".join(problems), p.returncode, wall, len(failed))
     return Outcome(p.returncode, failed, wall, tuple(problems), tail)

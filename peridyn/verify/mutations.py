@@ -15,7 +15,7 @@ MUTATIONS: tuple[Mutation, ...] = (
         (S(_EL, "return ((((3.0 * w) * keep) * z) * e) * volume[j]", "return ((((2.9 * w) * keep) * z) * e) * volume[j]"),
          S(_EL, "return ((3.0 * z) * (L - z)) * P[j, 5]", "return ((2.9 * z) * (L - z)) * P[j, 5]"),
          S(_EL, "return ((((3.0 * w) * (1.0 - d)) * z) * (L - z)) * P[j, 5]", "return ((((2.9 * w) * (1.0 - d)) * z) * (L - z)) * P[j, 5]")),
-        ("wave-speed", "dispersion", "lattice-constants", "poisson-ratio", "static-modulus"),
+        ("wave-speed", "dispersion", "lattice-constants", "poisson-ratio", "static-modulus", "confined-compression"),
     ),
     Mutation(
         "critical-step-x1.7", "the critical time-step estimate 1.7 times too large",
@@ -84,12 +84,12 @@ MUTATIONS: tuple[Mutation, ...] = (
         "short-range-contact-x1.1", "the short-range force contact's force 9 k / (pi delta^4) per visit 10 % too large",
         (S("contact/short_range.py", "c = (9.0 * k) / ((((PI * delta) * delta) * delta) * delta)",
            "c = (9.9 * k) / ((((PI * delta) * delta) * delta) * delta)"),),
-        ("hertz",), area="contact",
+        ("hertz", "contact-step"), area="contact",
     ),
     Mutation(
         "contact-step-stiffness-x1.1", "the short-range contact's pair stiffness 18 k / (pi delta^5) in the stable-step estimate 10 % too large",
         (S("contact/short_range.py", "return (18.0 * self.params.spring_constant)", "return (19.8 * self.params.spring_constant)"),),
-        ("contact-stability",), area="time step",
+        ("contact-step", "contact-stability"), area="time step",
     ),
     Mutation(
         "penalty-contact-x1.1", "the penalty contact's constant 9 / pi 10 % too large",
@@ -100,6 +100,12 @@ MUTATIONS: tuple[Mutation, ...] = (
         "verlet-drift-x1.01", "velocity Verlet's drift du = dt v 1 % too long",
         (S("solvers/explicit/laws.py", "        d = dt * v[i, c]\n", "        d = (1.01 * dt) * v[i, c]\n"),),
         ("verlet-energy",), area="solvers",
+    ),
+    Mutation(
+        "neo-hookean-linearised", "the neo-Hookean stress law's B = F F^T linearised to F + F^T - I (the same to first order in "
+        "the strain, not objective)",
+        (S("materials/correspondence/laws.py", "    B = F_new @ F_new.T\n", "    B = F_new + F_new.T - np.eye(3)\n"),),
+        ("rigid-rotation",),
     ),
     Mutation(
         "newmark-beta-x1.2", "Newmark's beta 1.2 times the deck's (0.3 for 1/4)",

@@ -34,6 +34,31 @@ def _fmt(value: Any) -> str:
     return str(value)
 
 
+def _compare(result: dict[str, Any] | None) -> list[str]:
+    """The ``--compare`` section: the points whose error moved beyond their tolerance."""
+    if not result:
+        return []
+    lines = [f"## Compared with {result.get('against')}", "",
+             f"{result['compared']} point(s) compared; **{len(result['moved'])} moved beyond their tolerance**"
+             if result["moved"] else f"{result['compared']} point(s) compared; none moved beyond its tolerance", ""]
+    if result["moved"]:
+        lines += ["| problem | method | resolution | error before | error now | why |", "|---|---|---|---|---|---|"]
+        lines += [f"| {m['problem']} | {_cell(m['method'])} | {_fmt(m['resolution'])} | {_fmt(m['before'])} | {_fmt(m['now'])} | {_cell(m['why'])} |"
+                  for m in result["moved"]]
+        lines.append("")
+    for key, what in (("only before", "only in the earlier run"), ("only now", "only in this run")):
+        if result.get(key):
+            lines += [f"Points {what} (not compared): " + ", ".join(f"{p} {m} {r:g}" for p, m, r in result[key][:20])
+                      + (" ..." if len(result[key]) > 20 else ""), ""]
+    return lines
+
+
+def _result(check: dict[str, Any]) -> str:
+    if check["passed"]:
+        return "pass"
+    return f"**FAIL** (known: {_cell(check['known'])})" if check.get("known") else "**FAIL**"
+
+
 def figure(entry: dict[str, Any], path: Path, plt) -> bool:
     """Error (y) against wall time (x), log-log, one curve per method with its fitted rate in
     the legend; False when no method has a point with a positive error and time."""
@@ -89,7 +114,9 @@ def _table(entry: dict[str, Any]) -> list[str]:
     for p in entry["points"]:
         row = [p["method"], _fmt(p["resolution"])] + ([_fmt(p.get("size")), _fmt(p.get("error"))] if curve else [])
         row += [_fmt(p.get("values", {}).get(k)) for k in extra]
-        row += [_fmt(p["wall (s)"]), _fmt(p["steps"]), f"{p['peak memory (MiB)']:.0f}"]
+        spread = p.get("wall spread (s)")
+        wall = _fmt(p["wall (s)"]) + (f" ({_fmt(spread[0])} .. {_fmt(spread[1])}, median of {p['wall runs']})" if spread else "")
+        row += [wall, _fmt(p["steps"]), f"{p['peak memory (MiB)']:.0f}"]
         if "failure" in p:
             row[-1] += f" (failed: {p['failure']})"
         lines.append("| " + " | ".join(_cell(c) for c in row) + " |")
@@ -110,17 +137,21 @@ def write_report(state: dict[str, Any], out: Path, *, figures: bool = True) -> P
         "",
         f"- command: `{state['command']}`{' (quick: the coarsest resolutions)' if state['quick'] else ''}",
         f"- status: {state['status']}; {'**' + str(failed) + ' check(s) FAIL**' if failed else 'every check passes'}; "
-        f"wall time {state['wall (s)']:.1f} s",
-        f"- date: {state['date']}; peridyn {v['version']}" + (f", commit {v['commit']}" if v.get("commit") else ""),
+        f"wall time {state['wall (s)']:.1f} s"
+        + (f"; {state['known misses']} known miss(es), shown as FAIL (known: why) and not counted" if state.get("known misses") else ""),
+        f"- date: {state['date']}; peridyn {v['version']}" + (f", commit {v['commit']}" if v.get("commit") else "")
+        + (f" ({v['commit from']})" if v.get("commit from") else ""),
         f"- machine: {m['cpu']}, {m['cores']} cores ({m['usable cores']} usable, {m['numba threads']} numba threads); {m['platform']}, "
         f"Python {m['python']}" + (f"; GPU: {m['gpu']}" if m.get("gpu") else ""),
         "",
         "Each point runs serially in one process; wall time is the point's own (set-up included unless its problem says "
-        "otherwise), peak memory the process's peak resident size so far (getrusage)."
+        "otherwise; a point of a curve under 0.1 s is run up to 5 times and its wall time is the median, the range of the "
+        "runs beside it), peak memory the process's peak resident size so far (getrusage)."
         + (f" Run under mpiexec with {state['ranks']} ranks, which shared out the points: each point's time was taken while "
            "the other ranks ran theirs on the same machine." if state.get("ranks", 1) > 1 else ""),
         "",
     ]
+    lines += _compare(state.get("compare"))
     for entry in state["problems"]:
         lines += [f"## {entry['name']}: {entry['title']}", "", f"**Computed.** {entry['computes']}", "",
                   f"**Reference.** {entry['reference']}", ""]
@@ -141,7 +172,7 @@ def write_report(state: dict[str, Any], out: Path, *, figures: bool = True) -> P
                     lines += [f"![{entry['name']}: error against wall time]({png.name})", ""]
         lines += ["| check | method | value | band | result |", "|---|---|---|---|---|"]
         for c in entry["checks"]:
-            lines.append(f"| {_cell(c['what'])} | {_cell(c['method'])} | {_cell(c['shown']) if c.get('shown') else _fmt(c['value'])} | {c['band']} | {'pass' if c['passed'] else '**FAIL**'} |")
+            lines.append(f"| {_cell(c['what'])} | {_cell(c['method'])} | {_cell(c['shown']) if c.get('shown') else _fmt(c['value'])} | {c['band']} | {_result(c)} |")
         lines.append("")
     path = out / "report.md"
     tmp = path.with_name("report.md.tmp")

@@ -6,6 +6,8 @@ from .branching import GlassBranching
 from .brazilian import BrazilianDisk
 from .contact import ContactStability, Hertz
 from .contact_penalty import HertzPenalty
+from .confined import ConfinedCompression
+from .contact_step import ContactStep
 from .critical_stretch import CriticalStretch
 from .base import Check, Measurement, Problem
 from .dispersion import Dispersion
@@ -19,13 +21,14 @@ from .j_integral import JIntegral
 from .lattice import LatticeConstants
 from .newmark import NewmarkEnergy
 from .parallel import ParallelAgreement
+from .rotation import RigidRotation
 from .static import StaticModulus
 
 #: name -> class, in the order ``peridyn verify`` runs them
 PROBLEMS: dict[str, type[Problem]] = {
     cls.name: cls
     for cls in (
-        WaveSpeed, Dispersion, LatticeConstants, ForceConvergence, VerletEnergy, NewmarkEnergy, Stability, ContactStability, ParallelAgreement, ExtremeCases, StaticModulus,
+        WaveSpeed, Dispersion, LatticeConstants, ForceConvergence, VerletEnergy, NewmarkEnergy, Stability, ContactStability, ContactStep, ParallelAgreement, ExtremeCases, RigidRotation, ConfinedCompression, StaticModulus,
         PoissonRatio, Kirsch, DeltaConvergence, CriticalStretch, Griffith, JIntegral, KalthoffWinkler, GlassBranching, BrazilianDisk, Diffusion, ViscoelasticRelaxation, PlasticityUniaxial,
         Hertz, HertzPenalty,
     )

@@ -165,6 +165,7 @@ class GlassBranching(Problem):
     size_name = "dx/40 mm"
     error_name = "|speed / c_R - 0.5|"
     methods = ("bond-based, plane stress",)
+    method_materials = {"bond-based, plane stress": "Elastic Bond Based"}
 
     def __init__(self, traction: float = GL_TRACTION) -> None:
         self.traction = traction

@@ -229,6 +229,7 @@ class BrazilianDisk(Problem):
     size_name = "dx / D"
     error_name = "|first-damage load / predicted - 1|"
     methods = ("bond-based, plane stress",)
+    method_materials = {"bond-based, plane stress": "Elastic Bond Based"}
 
     def ladder(self, method: str, quick: bool) -> list[float]:
         return [40.0] if quick else [40.0, 80.0, 160.0]

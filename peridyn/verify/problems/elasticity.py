@@ -470,6 +470,7 @@ class DeltaConvergence(Problem):
     size_name = "h/L"
     error_name = "relative max error"
     methods = ("fixed m = 2.015", "fixed delta = L/2")
+    method_materials = {m: "Elastic" for m in methods}
     unfitted = {"fixed delta = L/2": "the error follows the lattice anisotropy A(m), which changes sign as shells enter the horizon"}
     rate_band = {"fixed m = 2.015": (1.8, 3.2)}
     finest_band = {"fixed m = 2.015": 3.0e-3}

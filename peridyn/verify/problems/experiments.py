@@ -263,6 +263,7 @@ class KalthoffWinkler(Problem):
     size_name = "dx/50 mm"
     error_name = "|angle - 70| (degrees)"
     methods = ("bond-based, plane stress",)
+    method_materials = {"bond-based, plane stress": "Elastic Bond Based"}
 
     def __init__(self, gc: float = KW_GC) -> None:
         self.gc = gc

@@ -146,6 +146,7 @@ class Diffusion(Problem):
     size_name = "h (m)"
     error_name = "relative error"
     methods = ("decay, improved quadrature", "decay, plain quadrature", "steady state")
+    method_materials = {m: "Diffusion" for m in methods}
     rate_band = {"decay, improved quadrature": (1.8, 2.3), "decay, plain quadrature": (1.8, 2.3), "steady state": (1.6, 2.3)}
     finest_band = {"decay, improved quadrature": 5.0e-3, "decay, plain quadrature": 5.0e-3, "steady state": 1.0e-6}
 

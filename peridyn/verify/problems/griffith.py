@@ -123,6 +123,7 @@ class Griffith(Problem):
     size_name = "-"
     error_name = "|sigma_init / sigma_c - 1|"
     methods = ("m = 3",)
+    method_materials = {"m = 3": "Elastic Bond Based"}
     BAND = 0.10
 
     def ladder(self, method: str, quick: bool) -> list[float]:

@@ -91,6 +91,7 @@ class JIntegral(Problem):
     size_name = "delta/a"
     error_name = "|J / (K_I^2/E') - 1|"
     methods = (f"m = {M:g}",)
+    method_materials = {f"m = {M:g}": "Elastic Bond Based"}
     unfitted = {f"m = {M:g}": "at a fixed delta/dx = 3 the error tends to the m = 3 lattice's offset (stiffer than E by about "
                               "6 %; J/(K_I^2/E') 0.97, 0.98, 0.95, 0.96, 0.94 for a/delta = 2 .. 6), not to zero, as a/delta "
                               "grows; the ring's lattice sampling adds a few % of scatter"}

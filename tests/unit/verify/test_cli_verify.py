@@ -81,3 +81,52 @@ def test_the_verlet_energy_gpu_curve_runs_its_model_on_the_gpu_backend():
         u_gpu, st_gpu = problem.run("Elastic Bond Based", 4, quick=True)
     assert st_gpu["device"] == "gpu" and st_cpu.get("device", "cpu") == "cpu"
     assert abs(u_gpu - u_cpu).max() <= 1e-12 * abs(u_cpu).max() and abs(u_cpu).max() > 0
+
+
+def test_help_lists_every_problem(capsys):
+    from peridyn.verify import PROBLEMS
+
+    with pytest.raises(SystemExit) as stop:
+        main(["verify", "--help"])
+    assert stop.value.code == 0
+    out = capsys.readouterr().out
+    listed = [line.split()[0] for line in out.split("problems (", 1)[1].splitlines()[1:] if line.startswith("  ") and not line.startswith("   ")]
+    assert listed == list(PROBLEMS)
+
+
+def test_compare_fails_when_a_points_error_moves_beyond_its_tolerance(tmp_path):
+    first = tmp_path / "first"
+    assert main(["verify", "--quick", "--problems", "contact-step", "--out", str(first), "-q"]) == ExitCode.OK
+    same = tmp_path / "same"
+    assert main(["verify", "--quick", "--problems", "contact-step", "--out", str(same), "--compare", str(first / "results.json"), "-q"]) == ExitCode.OK
+    assert json.loads((same / "results.json").read_text())["compare"]["compared"] == 8
+    state = json.loads((first / "results.json").read_text())
+    state["problems"][0]["points"][3]["error"] *= 1.06  # the earlier run's error 6 % away: this run's moved by 5.7 %
+    (first / "moved.json").write_text(json.dumps(state))
+    moved = tmp_path / "moved"
+    assert main(["verify", "--quick", "--problems", "contact-step", "--out", str(moved), "--compare", str(first / "moved.json"), "-q"]) == ExitCode.FAILURE
+    result = json.loads((moved / "results.json").read_text())
+    assert result["failed checks"] == 0 and len(result["compare"]["moved"]) == 1
+    assert "Compared with" in (moved / "report.md").read_text()
+
+
+def test_compare_with_a_file_that_is_not_results_is_exit_2_with_one_line(tmp_path, capsys):
+    bad = tmp_path / "bad.json"
+    bad.write_text("{}")
+    assert main(["verify", "--problems", "contact-step", "--out", str(tmp_path / "o"), "--compare", str(bad)]) == ExitCode.INPUT_ERROR
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--compare" in err[0]
+
+
+def test_material_runs_the_problems_that_apply_to_it_and_rejects_an_unknown_one(tmp_path, capsys):
+    from peridyn.verify.runner import select_problems
+
+    chosen = select_problems(None, "Elastic Bond Based")
+    names = [p.name for p in chosen]
+    assert {"wave-speed", "lattice-constants", "critical-stretch", "rigid-rotation", "kalthoff-winkler"} <= set(names)
+    assert "kirsch" not in names and "diffusion" not in names
+    assert all(p.material_of(m) == "Elastic Bond Based" for p in chosen for m in p.methods)
+    assert [p.methods for p in select_problems(["rigid-rotation"], "Pals")] == [("Pals",)]
+    assert main(["verify", "--material", "No Such Model", "--out", str(tmp_path / "o")]) == ExitCode.INPUT_ERROR
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "No Such Model" in err[0] and "Elastic" in err[0]

@@ -153,3 +153,21 @@ def test_a_diagnosis_that_does_not_name_the_springs_fails(monkeypatch):
     points, checks = ladder(p, "k/K = 1000")
     assert points[0]["values"]["stopped"] > 0 and points[0]["values"]["stopped naming the contact springs"] == 0
     assert any(c.what.startswith("trials ended silently") for c in failed(checks)), checks
+
+
+def test_contact_step_sees_the_estimates_contact_stiffness_ten_percent_off(monkeypatch):
+    """The exact Verlet limit of the linearised contact model against the set-up estimate: the
+    unchanged model is inside its band; the estimate's pair stiffness 10 % high moves the ratio
+    out of it (contact-stability's bisection cannot see that)."""
+    from peridyn.contact.short_range import ShortRangeForce
+    from peridyn.verify.problems.contact_step import ContactStep
+
+    problem = ContactStep()
+    point = {"resolution": 1.515, "error": problem.measure("k/K = 1000", 1.515, True).error}
+    point["values"] = {"asymmetry of K / rho": 0.0}
+    assert all(c.passed for c in problem.checks("k/K = 1000", [point], True))
+    stiffness = ShortRangeForce.pair_stiffness
+    monkeypatch.setattr(ShortRangeForce, "pair_stiffness", lambda self, horizon: 1.1 * stiffness(self, horizon))
+    point["error"] = problem.measure("k/K = 1000", 1.515, True).error
+    failed = [c.what for c in problem.checks("k/K = 1000", [point], True) if not c.passed]
+    assert failed and "against its measured" in failed[0]

@@ -44,6 +44,15 @@ def load(out):
     return json.loads((out / "results.json").read_text())
 
 
+@pytest.fixture(autouse=True)
+def _one_run_per_point(monkeypatch, request):
+    """These tests count the measurements: a short point runs once (its repeats have their own test)."""
+    if "median_of_repeats" not in request.node.name:
+        from peridyn.verify import runner
+
+        monkeypatch.setattr(runner, "REPEAT_BELOW", 0.0)
+
+
 def test_a_run_writes_every_point_rate_and_check(tmp_path):
     assert Run([Power()], tmp_path, quick=True).run() == ExitCode.OK
     data = load(tmp_path)
@@ -202,3 +211,42 @@ def test_a_companion_curve_is_drawn_beside_each_method(tmp_path, monkeypatch):
     assert Run([WithCompanion()], tmp_path, quick=True).run() == ExitCode.OK
     assert load(tmp_path)["problems"][0]["companions"] == {"beside": ["beside error", "beside wall (s)"]}
     assert "a: beside (rate 2.00 in 1/n)" in drawn and "b: beside (rate 2.00 in 1/n)" in drawn
+
+
+def test_the_commit_of_a_non_editable_install_comes_from_its_metadata(monkeypatch, tmp_path):
+    """Outside a checkout the commit is pip's record of a git install (PEP 610 vcs_info), else the
+    HEAD of the checkout it was installed from, else None with the reason; each says its source."""
+    from peridyn.verify import runner
+
+    heads = {str(tmp_path): "f" * 40}
+    monkeypatch.setattr(runner, "_git_head", lambda folder: heads.get(str(folder)))
+    monkeypatch.setattr(runner, "_direct_url", lambda: {"url": "https://example.invalid/peridyn.git", "vcs_info": {"vcs": "git", "commit_id": "a" * 40}})
+    v = runner.peridyn_version()
+    assert v["commit"] == "a" * 40 and "metadata" in v["commit from"]
+    monkeypatch.setattr(runner, "_direct_url", lambda: {"url": tmp_path.as_uri(), "dir_info": {}})
+    v = runner.peridyn_version()
+    assert v["commit"] == "f" * 40 and "may be older" in v["commit from"]
+    monkeypatch.setattr(runner, "_direct_url", lambda: None)
+    v = runner.peridyn_version()
+    assert v["commit"] is None and "not known" in v["commit from"]
+
+
+def test_a_short_point_is_timed_as_the_median_of_repeats_with_its_spread(tmp_path):
+    from peridyn.verify import runner
+
+    class Tiny(Problem):
+        name, title, computes, reference, resolution_name = "tiny", "t", "c", "r", "n"
+        methods = ("a",)
+        calls = 0
+
+        def ladder(self, method, quick):
+            return [1.0]
+
+        def measure(self, method, resolution, quick):
+            Tiny.calls += 1
+            return Measurement(0.5, size=1.0)
+
+    point = Run([Tiny()], tmp_path, quick=True).point(Tiny(), "a", 1.0)
+    assert point["wall runs"] == Tiny.calls == runner.REPEATS and point["error"] == 0.5
+    lo, hi = point["wall spread (s)"]
+    assert lo <= point["wall (s)"] <= hi
