@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from ...core.errors import InstabilityError
-from ...solvers.verlet import Verlet
+from ...solvers.explicit.verlet import Verlet
 from ...testing import build_simulation, cube_deck
 from ..materials import G, K, RHO, material_names, parameters
 from .base import Check, Measurement, Problem
