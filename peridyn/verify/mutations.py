@@ -19,12 +19,12 @@ MUTATIONS: tuple[Mutation, ...] = (
     ),
     Mutation(
         "critical-step-x1.7", "the critical time-step estimate 1.7 times too large",
-        (S("engine/simulation.py", "        return dt[: self.num_owned]\n", "        return 1.7 * dt[: self.num_owned]\n"),),
+        (S("engine/critical_step.py", "    return dt[: sim.num_owned]\n", "    return 1.7 * dt[: sim.num_owned]\n"),),
         ("stability",), area="time step",
     ),
     Mutation(
         "critical-step-x0.6", "the critical time-step estimate 0.6 times too small",
-        (S("engine/simulation.py", "        return dt[: self.num_owned]\n", "        return 0.6 * dt[: self.num_owned]\n"),),
+        (S("engine/critical_step.py", "    return dt[: sim.num_owned]\n", "    return 0.6 * dt[: sim.num_owned]\n"),),
         ("stability",), area="time step",
     ),
     Mutation(
