@@ -27,6 +27,14 @@ def bulk_and_shear(
         raise ValueError(
             f"give exactly two of 'Bulk Modulus', 'Shear Modulus', \"Young's Modulus\", \"Poisson's Ratio\" (got {', '.join(given) or 'none'})"
         )
+    try:
+        return _from_pair(K, G, E, nu, plane_strain, plane_stress)
+    except ZeroDivisionError:  # a pair on the edge of the admissible range (E = 9K, E = 3G, nu = 1/2, ...)
+        raise ValueError(f"{given[0]} and {given[1]} give no finite bulk and shear modulus (Poisson's ratio at -1 or 1/2): "
+                         "give elastic constants of a material with -1 < nu < 1/2") from None
+
+
+def _from_pair(K, G, E, nu, plane_strain: bool, plane_stress: bool) -> tuple[float, float]:
     if K is not None:
         if G is not None:
             return K, G
