@@ -63,6 +63,7 @@ from .problem import (
     solver_stats,
     threads_for,
 )
+from .nox_group import NOXGroup
 from .nox_params import (  # noqa: F401 (re-exported)
     NOX_OTHER_KEYS,
     NOXLinearSolverParams,
@@ -71,7 +72,6 @@ from .nox_params import (  # noqa: F401 (re-exported)
 )
 from .trust_region import (
     ForcingTermOptions,
-    TransposeProduct,
     TrustRegionError,
     TrustRegionOptions,
     TrustRegionSolver,
@@ -428,7 +428,7 @@ class NOXRun:
         )
         options = q.trust_region.options()
         options = TrustRegionOptions(**{**options.__dict__, "cauchy_scaling": q.cauchy_direction.steepest_descent.scaling_type})
-        solver = TrustRegionSolver(_TrustRegionProblem(self), s, options, forcing, lambda F, niter: self.status(F, tol, niter))
+        solver = TrustRegionSolver(NOXGroup(self), s, options, forcing, lambda F, niter: self.status(F, tol, niter))
         status = "unconverged"
         try:
             while status == "unconverged":
@@ -572,52 +572,3 @@ class NOXRun:
             if q.nonlinear_solver == "Inexact Trust Region Based":
                 extra["trust_region"] = dict(zip(("newton_steps", "cauchy_steps", "dogleg_steps", "inner_iterations", "recovery_steps"), self.trust_region_counters))
             solver_stats(sim, self.section, "NOXQuasiStatic", steps, _time.perf_counter() - wall0, prob, linear_iterations=self.linear_iterations, **extra)
-
-
-class _TrustRegionProblem:
-    """The NOX group the trust region solver works on: Peridigm's residual, its tangent (with
-    the BC modification, not negated) as the Jacobian, AztecOO's GMRES as the Jacobian inverse."""
-
-    def __init__(self, run: NOXRun) -> None:
-        self.run = run
-        self.T = run.problem.tangent
-        self._transpose = TransposeProduct(self.T)
-        self._prec = None
-
-    def F(self, s: np.ndarray) -> np.ndarray:
-        return self.run.F(s)
-
-    def jacobian(self, s: np.ndarray) -> None:
-        self.run.jacobian(s)
-        self._prec = None
-
-    def apply_jacobian(self, d: np.ndarray) -> np.ndarray:
-        return self.T.matvec(d)
-
-    def apply_jacobian_transpose(self, d: np.ndarray) -> np.ndarray:
-        return self._transpose(d)
-
-    def solve(self, rhs: np.ndarray, tol: float, x0: np.ndarray | None) -> tuple[np.ndarray, bool]:
-        run = self.run
-        lin = run.p.linear_params
-        precond = None
-        if lin.preconditioner != "None":
-            if self._prec is None:
-                self._prec = run.aztec_preconditioner()
-            precond = self._prec
-        if lin.zero_initial_guess:
-            x0 = None
-        res = aztecoo_gmres(
-            self.T.matvec, rhs, x0, tol, lin.kspace, lin.max_iterations, precond, classical=lin.orthogonalization == "Classical", comm=run.comm,
-            ill_cond_thresh=lin.ill_conditioning_threshold,
-        )
-        run.linear_iterations += res.iterations
-        if not res.converged:
-            log.debug("%s: %s; using the direction anyway", run.section, res.message)
-        return res.x, res.converged
-
-    def dot(self, a: np.ndarray, b: np.ndarray) -> float:
-        return float(self.run._dot(a, b))
-
-    def norm(self, a: np.ndarray) -> float:
-        return float(self.run._norm(a))
