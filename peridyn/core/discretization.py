@@ -43,6 +43,10 @@ class Discretization:
     neighbor_rule: a grid generator's own neighborhood rule (PdQuickGrid boxes); ``None`` means a
         Euclidean search within each point's horizon, inclusive (Exodus and Text File meshes).
     source: file name or generator name, for messages.
+    construct_interfaces: the mesh's block interfaces are to be built and written (an Exodus
+        mesh's ``Construct Interfaces``, PERIDIGM_MODELS.md §11).
+    element_horizon_intersections: neighbors and partial volumes from the elements' overlap with
+        each horizon (an Exodus mesh's ``Compute Element-Horizon Intersections``).
     """
 
     x: np.ndarray
@@ -54,6 +58,8 @@ class Discretization:
     min_element_radius: float = 1e50
     neighbor_rule: NeighborRule | None = None
     source: str = ""
+    construct_interfaces: bool = False
+    element_horizon_intersections: bool = False
 
     @property
     def num_points(self) -> int:

@@ -142,7 +142,7 @@ class Simulation:
         self._order_points(disc, offsets, neighbors, horizon)
         del offsets, neighbors  # the search's lists in mesh order (4 bytes a bond): renumbered into self.bonds
         self.interfaces = None
-        if getattr(dentry.params, "construct_interfaces", False):  # PERIDIGM_MODELS.md §11
+        if disc.construct_interfaces:  # PERIDIGM_MODELS.md §11
             from ..io.interfaces import setup_interfaces
 
             self.interfaces = setup_interfaces(self)
@@ -281,7 +281,7 @@ class Simulation:
         if disc.neighbor_rule is not None:
             offsets, neighbors = disc.neighbor_rule(points, horizon)
             neighbors = neighbors.astype(np.int32, copy=False)  # 4 bytes per bond from here on
-        elif getattr(dentry.params, "compute_element_horizon_intersections", False):
+        elif disc.element_horizon_intersections:
             from ..geometry.partial_volumes import intersecting_neighbors
             from ..io.interfaces import element_hex_nodes
 

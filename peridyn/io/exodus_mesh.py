@@ -500,5 +500,8 @@ class ExodusMesh(DiscretizationReader):
 
     def read(self) -> Discretization:
         params: ExodusMeshParams = self.params  # type: ignore[assignment]
-        return read_exodus_mesh(find_input_file(params.input_mesh_file, self.deck_dir))
+        disc = read_exodus_mesh(find_input_file(params.input_mesh_file, self.deck_dir))
+        disc.construct_interfaces = params.construct_interfaces
+        disc.element_horizon_intersections = params.compute_element_horizon_intersections
+        return disc
 
