@@ -332,8 +332,8 @@ class ContactManager:
         """Spring Constant (for another model: the Spring Constant of Short Range Force springs as
         stiff as its stiffest, pi delta^5 / 18 times its pair stiffness) over the smallest bulk
         modulus of the blocks."""
-        k = float(getattr(self.model.params, "spring_constant", math.nan))
-        if not math.isfinite(k):
+        k = self.model.spring_constant()
+        if k is None:
             stiffness = self.model.pair_stiffness(self.block_horizon)
             k = float(np.max(stiffness * np.pi * self.block_horizon**5 / 18.0)) if stiffness is not None else math.nan
         moduli = [float(blk.material.bulk_modulus) for blk in self.sim.blocks if blk.material.bulk_modulus > 0]
@@ -345,7 +345,7 @@ class ContactManager:
             dt_c = self.stable_time_step()
         except Exception:  # a diagnosis must never raise
             return ""
-        k = getattr(self.model.params, "spring_constant", None)
+        k = self.model.spring_constant()
         key = type(self.model).stiffness_key
         springs = f"{key} {k:.4g}, " if isinstance(k, float) else "as stiff as Short Range Force springs of "
         if dt > dt_c:

@@ -206,6 +206,9 @@ class ShortRangeForce(ContactModel):
     def contact_radius(self) -> float:
         return float(self.params.contact_radius)
 
+    def spring_constant(self) -> float:
+        return float(self.params.spring_constant)
+
     def pair_stiffness(self, horizon: np.ndarray) -> np.ndarray:
         with np.errstate(all="ignore"):
             return (18.0 * self.params.spring_constant) / (PI * np.asarray(horizon, float) ** 5)

@@ -464,10 +464,9 @@ class ContactModel(ABC):
     """Short-range forces between points that are not bonded, found by a search in the deformed
     configuration (the engine does the search; the model turns pairs into forces).
 
-    ``force`` adds the contact force density (M L^-2 T^-2) on every owned point to
-    ``out`` (num_owned, 3): a gather over the point's row of :class:`ContactPairs`, so rows can be
-    computed in parallel without writing to another point. The model must not act beyond
-    ``contact_radius`` (the engine lists only pairs closer than that plus a margin).
+    ``force`` adds the contact force density (M L^-2 T^-2) on every owned point to ``out``
+    (num_owned, 3): a gather over the point's row of :class:`ContactPairs`, rows in parallel. The
+    model must not act beyond ``contact_radius`` (pairs are listed up to it plus a margin).
     """
 
     name: ClassVar[str]
@@ -491,6 +490,10 @@ class ContactModel(ABC):
 
     def begin_step(self, time: float) -> None:
         """Before each force evaluation of an explicit step, at the step's time (T)."""
+
+    def spring_constant(self) -> float | None:
+        """The deck's one-number stiffness (M L^-1 T^-2, as a bulk modulus) if it has one."""
+        return None
 
     def pair_stiffness(self, horizon: np.ndarray) -> np.ndarray | None:
         """Force density per unit partner volume per unit approach (M L^-5 T^-2) of one pair, per
@@ -542,6 +545,10 @@ class Compute(ABC):
     @abstractmethod
     def outputs(self, sim: "Simulation") -> list[FieldSpec]:
         """The fields this compute fills (they are allocated when the compute is used)."""
+
+    def requires(self, sim: "Simulation") -> list[str]:
+        """Output variables this compute reads (their computes run first); none by default."""
+        return []
 
     def initialize(self, sim: "Simulation") -> None:
         """Once, after materials and damage models are initialized."""

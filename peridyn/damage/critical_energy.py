@@ -128,8 +128,10 @@ class CriticalEnergy(CriticalStretch):
     def __init__(self, params: CriticalEnergyParams, *, options=None) -> None:
         super().__init__(params, options=options)
         self.G0 = params.G0
-        self.s_c = math.nan  # known once the material is bound
         self._lps: tuple[float, float, float] | None = None  # (K, mu, delta) until the influence function is known
+
+    def critical_stretch_at(self, time: float) -> float:
+        return math.nan  # known once the material is bound
 
     def bind_material(self, material) -> None:
         delta = material.horizon

@@ -82,8 +82,12 @@ class CriticalStretch(DamageModel):
 
     def __init__(self, params, *, options=None) -> None:
         super().__init__(params, options=options)
-        self.s_c = float(getattr(params, "critical_stretch", 0.0))
+        self.s_c = self.critical_stretch_at(0.0)
         self.alpha_T = params.thermal_expansion_coefficient
+
+    def critical_stretch_at(self, time: float) -> float:
+        """The critical stretch (dimensionless) at time ``time`` (T)."""
+        return float(self.params.critical_stretch)
 
     @property
     def symmetric(self) -> bool:
@@ -146,12 +150,14 @@ class TimeDependentCriticalStretch(CriticalStretch):
     Params = TimeDependentCriticalStretchParams
 
     def __init__(self, params, *, options=None) -> None:
-        super().__init__(params, options=options)
         from ..deck.expressions import compile_expression
 
         value = params.time_dependent_critical_stretch
         self.expr = compile_expression(repr(value) if isinstance(value, float) else value, ("t",))
-        self.s_c = float(self.expr(t=0.0))
+        super().__init__(params, options=options)
+
+    def critical_stretch_at(self, time: float) -> float:
+        return float(self.expr(t=time))
 
     def begin_step(self, block: BlockView, time: float) -> None:
-        self.s_c = float(self.expr(t=time))
+        self.s_c = self.critical_stretch_at(time)

@@ -86,7 +86,7 @@ class OutputManager:
         loader_name = deck.data_loader.field_name if deck.data_loader is not None else None
 
         def add_compute(name: str, obj) -> None:
-            for dep in getattr(obj, "requires", lambda sim: [])(sim):
+            for dep in obj.requires(sim):
                 resolve(dep, None)
             self.computes[name] = obj
             for spec in obj.outputs(sim):
@@ -224,7 +224,7 @@ class OutputManager:
             changed = False
             for obj in self.computes.values():
                 if id(obj) in wanted:
-                    for dep in getattr(obj, "requires", lambda sim: [])(self.sim):
+                    for dep in obj.requires(self.sim):
                         d = self.variables.get(dep)
                         if d is not None and d.compute is not None and id(d.compute) not in wanted:
                             wanted.add(id(d.compute))
@@ -281,7 +281,7 @@ def model_producers(registry) -> dict[str, dict[str, list[str]]]:
             try:
                 params = cls.Params.model_construct(**_stand_in_values(cls.Params))
                 obj = cls(params, horizon=1.0, options={}) if kind == "material" else cls(params, options={})
-                specs = list(obj.fields()) + list(getattr(obj, "output_fields", lambda: [])())
+                specs = list(obj.fields()) + list(obj.output_fields() if kind == "material" else [])
             except Exception:  # needs a parameter it was not given
                 continue
             for spec in specs:

@@ -76,8 +76,8 @@ MUTATIONS: tuple[Mutation, ...] = (
     ),
     Mutation(
         "critical-stretch-x1.1", "the Critical Stretch damage model breaking bonds at 1.1 s_c",
-        (S("damage/critical_stretch.py", 'self.s_c = float(getattr(params, "critical_stretch", 0.0))',
-           'self.s_c = 1.1 * float(getattr(params, "critical_stretch", 0.0))'),),
+        (S("damage/critical_stretch.py", "return float(self.params.critical_stretch)",
+           "return 1.1 * float(self.params.critical_stretch)"),),
         ("critical-stretch", "brazilian-disk", "griffith", "j-integral", "kalthoff-winkler", "glass-branching"), area="damage",
     ),
     Mutation(
