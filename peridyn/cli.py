@@ -11,6 +11,7 @@ from pathlib import Path
 
 from .core.errors import ExitCode, InputError, InstabilityError, OutputWriteError, PeridynError
 from .core.logs import say, setup_logging
+from .core.resources import usable_cores
 
 log = logging.getLogger("peridyn")
 #: set from --log-json before the command runs
@@ -414,7 +415,7 @@ def _single_threaded_blas() -> None:
     from .parallel.comm import launched_with_mpi, ranks_on_this_node
 
     if launched_with_mpi():
-        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+        cores = usable_cores()
         os.environ.setdefault("NUMBA_NUM_THREADS", str(max(1, cores // ranks_on_this_node())))
     # idle numba threads sleep instead of spinning: a spinning thread holds a core another
     # process needs, and a thread that process preempts stalls the spinning one at the next

@@ -20,6 +20,7 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from ..core.resources import usable_cores
 from .checks import ArgumentError, ArgumentTypeError, a_callable, whole_number
 from .decks import DeckLike, deck_tree, plain
 
@@ -186,7 +187,7 @@ class Study:
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
 
-        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+        cores = usable_cores()
         workers = min(processes, len(jobs))
         # the workers start fresh (spawn) and read these before numba loads: threads x workers = cores
         env = {"NUMBA_NUM_THREADS": str(max(1, cores // workers)), "OMP_WAIT_POLICY": "PASSIVE",

@@ -347,7 +347,7 @@ class ContactManager:
             return ""
         k = self.model.spring_constant()
         key = type(self.model).stiffness_key
-        springs = f"{key} {k:.4g}, " if isinstance(k, float) else "as stiff as Short Range Force springs of "
+        springs = f"{key} {k:.4g}, " if k is not None else "as stiff as Short Range Force springs of "
         if dt > dt_c:
             return (
                 f"contact springs ({springs}{self.stiffness_ratio():.3g} times the bulk modulus) lower the stable "

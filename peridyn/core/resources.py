@@ -1,6 +1,6 @@
-"""What this machine has to give a run, read the same way wherever a size is judged: the memory
-available now, and whether the size limits are switched off (``PERIDYN_NO_LIMITS=1``, which
-``peridyn run --no-limits`` sets)."""
+"""What this machine has to give a run, read the same way wherever a size is judged: the cores
+and the memory available now, and whether the size limits are switched off
+(``PERIDYN_NO_LIMITS=1``, which ``peridyn run --no-limits`` sets)."""
 from __future__ import annotations
 
 import math
@@ -13,6 +13,11 @@ NO_LIMITS_ENV = "PERIDYN_NO_LIMITS"
 def limits_off() -> bool:
     """Whether ``PERIDYN_NO_LIMITS`` asks for refusals of size to be warnings."""
     return os.environ.get(NO_LIMITS_ENV, "").strip().lower() not in ("", "0", "false", "no")
+
+
+def usable_cores() -> int:
+    """Cores this process may run on (its CPU affinity where the system has one), at least 1."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
 
 
 def available_memory() -> float:

@@ -14,6 +14,8 @@ from pathlib import Path
 
 import pytest
 
+from peridyn.core.resources import usable_cores
+
 HERE = Path(__file__).resolve().parent
 RUNNER = HERE.parents[1].parent / "shared" / "conformance" / "run.py"
 
@@ -46,7 +48,7 @@ def _run(case: str, options: str, env: dict[str, str], keep: Path) -> subprocess
 def runs(request, tmp_path_factory):
     """The selected cases started at once on a pool of one-thread runs, one per core; each test
     waits for its own case (independent processes, each in its own folder)."""
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    cores = usable_cores()
     pool = ThreadPoolExecutor(max_workers=max(1, min(cores, 8)))
     futures = {}
     for item in request.session.items:
