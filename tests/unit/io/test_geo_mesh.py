@@ -310,7 +310,7 @@ def children(pid: int) -> list[int]:
 def test_a_signal_stops_a_run_while_gmsh_meshes(tmp_path, signum, code):
     deck = case(tmp_path, 'SetFactory("OpenCASCADE");\nBox(1) = {0, 0, 0, 1, 1, 1};\nPhysical Volume("Body") = {1};\n'
                 'Mesh.MeshSizeMax = 0.01;\n')  # minutes of meshing and gigabytes
-    env = dict(os.environ, PERIDYN_NO_LIMITS="1")  # meshing starts on any machine
+    env = dict(os.environ, PERIDYN_NO_LIMITS="1", PYTHONFAULTHANDLER="1")  # meshing starts on any machine
     proc = subprocess.Popen([sys.executable, "-m", "peridyn", "run", str(deck), "-q", "--no-progress"], cwd=tmp_path, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
@@ -322,7 +322,11 @@ def test_a_signal_stops_a_run_while_gmsh_meshes(tmp_path, signum, code):
         time.sleep(1.0)  # gmsh has read the geometry and is meshing
         assert proc.poll() is None
         proc.send_signal(signum)
-        _, err = proc.communicate(timeout=60)
+        try:
+            _, err = proc.communicate(timeout=60)
+        except subprocess.TimeoutExpired:  # once in a loaded full run: show where it hangs
+            proc.send_signal(signal.SIGABRT)
+            pytest.fail("the run did not stop within 60 s; its threads:\n" + proc.communicate(timeout=30)[1][-6000:])
     finally:
         if proc.poll() is None:
             proc.kill()
