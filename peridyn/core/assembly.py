@@ -5,13 +5,46 @@ A point i's force state touches S_i = [N_i..., i] (its neighbors in bond order, 
 ``local_*_force_kernel`` write the force density of i's bonds on S_i as a flat vector
 (3 (|N_i| + 1),), and :func:`scatter_local_kernel` adds a dense local matrix on S_i into the
 BSR arrays of K (3x3 blocks, rows and columns in row numbering, columns ascending within a row;
-see :class:`peridyn.solvers.linalg.tangent.TangentTarget`).
+see :class:`TangentTarget`).
 """
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
+import numpy as np
 from numba import njit
+
+
+@dataclass
+class TangentTarget:
+    """What ``Material.tangent`` writes into: the BSR arrays of K in row (global-id) numbering
+    and the maps a gather kernel needs.
+
+    indptr (nrows+1,) int64; indices (nnzb,) int32 block columns (row numbering); data
+    (nnzb, 3, 3) float64, ``data[p, d, c] = dF_(row,d)/dy_(col,c)`` (force per length);
+    row_of_local / local_of_row map local point indices and rows (under MPI the rows are the
+    rank's local points, owned then ghosts; nrows = number of local points); eval_rank (n,) is Peridigm's
+    evaluation order of points (block, then global id); in_offsets, in_bonds, sources: the
+    transposed neighbor list (incoming bonds of every point and the owner of every bond);
+    nchunks: number of independent row chunks for ``prange``; max_degree / max_in: the longest
+    neighbor list and incoming list (scratch sizes)."""
+
+    indptr: np.ndarray
+    indices: np.ndarray
+    data: np.ndarray
+    row_of_local: np.ndarray
+    local_of_row: np.ndarray
+    eval_rank: np.ndarray
+    in_offsets: np.ndarray
+    in_bonds: np.ndarray
+    sources: np.ndarray
+    nrows: int
+    nchunks: int
+    max_degree: int
+    max_in: int
+    probe_length: float | None = None  #: the finite-difference probe of the block being filled (L)
+
 
 
 @njit(cache=True)

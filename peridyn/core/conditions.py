@@ -18,8 +18,17 @@ from abc import ABC
 from typing import Any, Callable, ClassVar
 
 import numpy as np
+from pydantic import Field
 
+from .params import ModelParams
 from .placement import Placement
+
+
+class ConditionParams(ModelParams):
+    """The keys of every ``Boundary Conditions`` entry: its type and the node set it is bound to."""
+
+    type: str = Field(alias="Type", description="condition type (case and spaces do not matter)")
+    node_set: str = Field(alias="Node Set", description="a node set defined in Boundary Conditions or by the mesh")
 
 
 class Condition(ABC):
@@ -35,6 +44,8 @@ class Condition(ABC):
     scalar: ClassVar[bool] = False
     #: where the step hooks run (see the module docstring)
     devices: ClassVar[frozenset[str]] = frozenset({"cpu"})
+    #: the entry's keys
+    Params: ClassVar[type[ConditionParams]]
 
     entry_name: str  #: the deck entry's name, for messages and deck paths
     points: np.ndarray  #: (k,) int64 local indices of the node set's owned points (a point may repeat)

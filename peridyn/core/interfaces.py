@@ -32,6 +32,7 @@ from .services import (
     Outputs,
     RunCheckpoints,
 )
+from .solver_section import SolverSection
 from .state import SolverState
 from .views import BlockView  # the plugin API: what a model works on
 from .contact import (  # the plugin API: the contact contract
@@ -43,6 +44,7 @@ from .contact import (  # the plugin API: the contact contract
     ContactState,
 )
 
+from .assembly import TangentTarget
 from .bonds import NeighborList
 from .discretization import Discretization
 
@@ -206,9 +208,14 @@ class Material(ABC):
     #: compiled probes); the wall-time estimate of implicit solvers reads it (peridyn.engine.limits)
     analytic_tangent: ClassVar[bool] = False
 
-    def tangent(self, block: BlockView, target: Any) -> bool:
+    def finite_difference_probe_length(self) -> float | None:
+        """The deck's ``Finite Difference Probe Length`` (L) of this material, which takes
+        precedence over the solver's; None (the default) where the material sets none."""
+        return None
+
+    def tangent(self, block: BlockView, target: TangentTarget) -> bool:
         """Add the tangent d(f V)/dy (force per length) of the block's points' bonds to the
-        implicit solvers' matrix ``target`` (a :class:`peridyn.solvers.linalg.tangent.TangentTarget`:
+        implicit solvers' matrix ``target`` (a :class:`peridyn.core.assembly.TangentTarget`:
         3x3-block sparse rows in global-id order, see :mod:`peridyn.materials.tangents`) and
         return True; fields are as left by ``precompute`` at the current configuration.
 
@@ -459,12 +466,13 @@ class Solver(ABC):
     """A time integrator or static solver; solver sections run in deck order."""
 
     name: ClassVar[str]
-    Params: ClassVar[type[ModelParams]]
+    #: the section's keys: those of every section, and the method sublist's
+    Params: ClassVar[type[SolverSection]]
     #: solves with a tangent (Newton iterations): its wall-time estimate counts the tangent's
     #: entries, not only force evaluations (peridyn.engine.limits)
     implicit: ClassVar[bool] = False
 
-    def __init__(self, params: ModelParams, *, section: str = "Solver") -> None:
+    def __init__(self, params: SolverSection, *, section: str = "Solver") -> None:
         self.params = params
         self.section = section
 
@@ -473,7 +481,15 @@ class Solver(ABC):
         """Advance ``sim`` from the solver's initial to its final time, writing output."""
 
     @classmethod
-    def tangent_request(cls, params: ModelParams) -> str | None:
+    def explicit_step(cls, params: SolverSection) -> tuple[float | None, float | None] | None:
+        """For an explicit section, whose step is the critical time step estimate unless fixed:
+        (the deck's ``Fixed dt`` times its ``Safety Factor``, or None; the ``Safety Factor``, or
+        None). None (the default) for a solver that chooses its steps otherwise; the plausibility
+        checks of the engine read it."""
+        return None
+
+    @classmethod
+    def tangent_request(cls, params: SolverSection) -> str | None:
         """The tangent the section asks for: "full" or "block diagonal" when the deck asks for
         one, "default" (full unless another section asks for a block-diagonal one), None (the
         default) for a solver without a tangent."""

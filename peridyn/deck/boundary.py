@@ -12,6 +12,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, Callable
 
+from ..core.conditions import Condition, ConditionParams
 from ..core.errors import InputError
 from .regions import RegionSpec
 from .validation import close_key, suggest, validate_params
@@ -39,8 +40,8 @@ class NodeSetEntry:
 class BCEntry:
     name: str
     type: str  #: tidied
-    cls: type
-    params: Any
+    cls: type[Condition]
+    params: ConditionParams
     path: tuple[str, ...]
 
 
@@ -147,8 +148,8 @@ def parse_boundary_conditions(sec: Mapping[str, Any], registry, file: str, error
                 err(problem, path)
             bcs.append(BCEntry(name, key, cls, params, path))
     for bc in bcs:
-        ns = getattr(bc.params, "node_set", None)
-        if ns is not None and "NODE_SET" in tidy(ns) and tidy(ns) not in node_sets and tidy(ns) not in invalid_node_sets:
+        ns = bc.params.node_set
+        if "NODE_SET" in tidy(ns) and tidy(ns) not in node_sets and tidy(ns) not in invalid_node_sets:
             # mesh node sets (nodelist_1) are checked once the mesh is read
             err(f"unknown node set {ns!r}", bc.path + ("Node Set",), suggest(ns, node_sets))
     return node_sets, bcs

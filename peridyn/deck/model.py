@@ -21,7 +21,9 @@ from typing import Any
 from pydantic import Field, field_validator
 
 from ..core.errors import InputError, raise_collected
+from ..core.interfaces import Solver
 from ..core.params import ModelParams
+from ..core.solver_section import SolverSection
 from ..plugins.manager import Registry, get_registry
 from .boundary import BCEntry, NodeSetEntry, parse_boundary_conditions, tidy
 from .source import SECTION_NAMES
@@ -134,8 +136,8 @@ class BlockEntry:
 class SolverEntry:
     section: str
     method: str
-    cls: type
-    params: Any
+    cls: type[Solver]
+    params: SolverSection
     path: tuple[str, ...]
 
 

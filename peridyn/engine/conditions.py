@@ -20,9 +20,8 @@ from pydantic import Field, field_validator
 
 from ..core.errors import InputError, InstabilityError, raise_collected
 from ..core.fields import FieldSpec, Length, Relation
-from ..core.conditions import Condition
+from ..core.conditions import Condition, ConditionParams
 from ..core.interfaces import Simulation
-from ..core.params import ModelParams
 from ..core.placement import Placement
 from ..kernels import scatter as S
 from ..deck.model import tidy
@@ -30,9 +29,7 @@ from ..deck.model import tidy
 COMPONENT = {"x": 0, "y": 1, "z": 2}
 
 
-class BCParams(ModelParams):
-    type: str = Field(alias="Type", description="condition type (case and spaces do not matter)")
-    node_set: str = Field(alias="Node Set", description="a node set defined in Boundary Conditions or by the mesh")
+class BCParams(ConditionParams):
     coordinate: str = Field("x", alias="Coordinate", description="component: x, y or z (scalar fields: x or omitted)")
     value: str | float = Field(alias="Value", description="expression in x, y, z, t (reference coordinates, time)")
 
@@ -266,9 +263,9 @@ class BoundConditions:
     """The deck's node sets and boundary conditions bound to this rank's points."""
 
     node_sets: dict[str, np.ndarray]  #: tidied name -> mothership indices (duplicates kept)
-    conditions: list[Any]  #: every condition, deck order
-    kinematic: list[Any]  #: conditions applied before a step (prescribed displacement, temperature, pressure)
-    force_conditions: list[Any]  #: body forces
+    conditions: list[Condition]  #: every condition, deck order
+    kinematic: list[Condition]  #: conditions applied before a step (prescribed displacement, temperature, pressure)
+    force_conditions: list[Condition]  #: body forces
     prescribed_points: np.ndarray  #: (k,) local points with a prescribed displacement component
     prescribed_dofs: np.ndarray  #: (num_local, 3) bool, True on displacement components a kinematic condition prescribes
 

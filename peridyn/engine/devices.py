@@ -23,7 +23,7 @@ def resolve_device(deck: Deck, device: str | None, backend: str | None) -> tuple
             raise InputError(f"--backend {backend} runs on a GPU, but --device cpu was given", file=deck.file, path=("--backend",),
                              fix="leave out --device, or give a CPU backend (numba)")
     if device is None:
-        asked = {entry.params.device.lower() for entry in deck.solvers if getattr(entry.params, "device", None)}
+        asked = {entry.params.device.lower() for entry in deck.solvers if entry.params.device}
         if len(asked) > 1:
             raise InputError("the solver sections ask for different devices (Device: CPU and GPU)", file=deck.file, path=("Solver", "Device"),
                              fix="give every solver section the same Device, or choose one with --device")

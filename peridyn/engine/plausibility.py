@@ -218,15 +218,9 @@ def _explicit_sections(sim: Any) -> list[tuple[Any, float, float | None, float |
     explicit (Verlet) solver section."""
     out = []
     for entry in sim.deck.solvers:
-        p = entry.params
-        verlet = getattr(p, "verlet", None)
-        t0, t1 = getattr(p, "initial_time", None), getattr(p, "final_time", None)
-        if verlet is None or t0 is None or t1 is None:
-            continue
-        fixed, factor = getattr(verlet, "fixed_dt", None), getattr(verlet, "safety_factor", None)
-        if fixed is not None and factor is not None:  # Peridigm multiplies a Fixed dt by the Safety Factor too
-            fixed = float(fixed) * float(factor)
-        out.append((entry, float(t1) - float(t0), fixed, factor))
+        step = entry.cls.explicit_step(entry.params)
+        if step is not None:
+            out.append((entry, float(entry.params.final_time) - float(entry.params.initial_time), *step))
     return out
 
 

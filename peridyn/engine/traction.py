@@ -26,7 +26,7 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from ..core.errors import InputError, InstabilityError
-from ..core.params import ModelParams
+from ..core.conditions import ConditionParams
 from ..deck.regions import layer_thicknesses
 from ..kernels import scatter as S
 from .conditions import BoundaryCondition
@@ -36,8 +36,7 @@ __all__ = ["SurfaceTraction", "TractionParams"]
 log = logging.getLogger(__name__)
 
 
-class TractionParams(ModelParams):
-    type: str = Field(alias="Type", description="condition type (case and spaces do not matter)")
+class TractionParams(ConditionParams):
     node_set: str = Field(alias="Node Set", description="the loaded points: a surface layer (or a region intersected with one)")
     traction: Annotated[list[float], Field(min_length=3, max_length=3)] | None = Field(
         None, alias="Traction", description="traction vector [tx, ty, tz] on the loaded area, a force per area (M L^-1 T^-2)")

@@ -438,6 +438,9 @@ class DeviatoricStateMaterial(Material):
         self.K, self.mu = params.moduli()
         self.omega_table = EMPTY
 
+    def finite_difference_probe_length(self) -> float | None:
+        return self.params.finite_difference_probe_length
+
     @property
     def density(self) -> float:
         return float(self.params.density)

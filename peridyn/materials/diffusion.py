@@ -198,6 +198,9 @@ class Diffusion(Material):
         self.improved = bool(params.use_improved_quadrature)
         self._weights_ready: set[tuple[int, int]] = set()
 
+    def finite_difference_probe_length(self) -> float | None:
+        return self.params.finite_difference_probe_length
+
     @property
     def density(self) -> float:
         return 1.0  # Peridigm's DiffusionMaterial::Density()

@@ -363,6 +363,9 @@ class Elastic(Material):
         self._reaches: dict[tuple[int, int], tuple[int, int, int, int]] = {}
         self._damage_model = None  # a damage model whose rule precompute applies itself
 
+    def finite_difference_probe_length(self) -> float | None:
+        return self.params.finite_difference_probe_length
+
     @property
     def density(self) -> float:
         return self.params.density

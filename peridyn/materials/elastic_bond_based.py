@@ -127,6 +127,9 @@ class ElasticBondBased(Material):
         else:
             self.c = (18.0 * self.K) / ((((math.pi * delta) * delta) * delta) * delta)
 
+    def finite_difference_probe_length(self) -> float | None:
+        return self.params.finite_difference_probe_length
+
     @property
     def density(self) -> float:
         return self.params.density

@@ -50,6 +50,14 @@ class PlasticParams(DeviatoricParams):
     #: with plasticity disabled Peridigm sets sigma_y to DBL_MAX and never reads the deck's value
     used_when = {"yield_stress": UsedWhen(lambda p: not p.disable_plasticity, "plasticity is enabled ('Disable Plasticity' false)", gt=0)}
 
+    def planar_thickness(self) -> float | None:
+        """The plate thickness (L) of a planar problem's 2-D yield value; None in 3-D."""
+        return None
+
+    def hardening_slope(self) -> float:
+        """H, the growth of the yield value per unit plastic multiplier; 1 (never read) for perfect plasticity."""
+        return 1.0
+
 
 class ElasticPlasticParams(PlasticParams):
     apply_ad_jacobian: bool = Field(
@@ -68,13 +76,15 @@ class ElasticPlasticParams(PlasticParams):
             raise ValueError("'Planar Problem' needs 'Thickness' (the plate thickness)")
         return self
 
+    def planar_thickness(self) -> float | None:
+        return self.thickness if self.planar_problem else None
+
 
 def ep_yield_value(params: PlasticParams, horizon: float) -> float:
     """Y of the deck (inf with ``Disable Plasticity``)."""
     if params.disable_plasticity:
         return math.inf
-    planar = getattr(params, "planar_problem", False)
-    return yield_value(params.yield_stress, horizon, params.thickness if planar else None)
+    return yield_value(params.yield_stress, horizon, params.planar_thickness())
 
 
 class ElasticPlastic(DeviatoricStateMaterial):
@@ -89,7 +99,7 @@ class ElasticPlastic(DeviatoricStateMaterial):
         super().__init__(params, horizon=horizon, options=options)
         self.Y = ep_yield_value(params, float(horizon))
         self._pp: np.ndarray | None = None  # return-map data of the force paths, (n_local, 6)
-        self.H = float(getattr(params, "hardening_modulus", 1.0))  # unused by perfect plasticity
+        self.H = float(params.hardening_slope())
 
     def fields(self) -> list[FieldSpec]:
         return super().fields() + [

@@ -54,6 +54,9 @@ class ElasticPlasticHardeningParams(PlasticParams):
     model_name = "'Elastic Plastic Hardening'"
     used_when = {"hardening_modulus": UsedWhen(lambda p: not p.disable_plasticity, "plasticity is enabled ('Disable Plasticity' false)", gt=0)}
 
+    def hardening_slope(self) -> float:
+        return self.hardening_modulus
+
 
 @njit(cache=True, inline="always", error_model="numpy")
 def _sheared_length(mode, x, i, j, d0, d1, d2):

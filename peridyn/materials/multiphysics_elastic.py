@@ -257,6 +257,7 @@ class MultiphysicsElastic(Material):
 
     def __init__(self, params: MultiphysicsElasticParams, *, horizon: float | None, options=None) -> None:
         super().__init__(params, horizon=horizon, options=options)
+        self._ones: np.ndarray | None = None
         if horizon is None:
             raise InputError(
                 "the Multiphysics Elastic material needs a constant horizon (its flow law uses the block's horizon)",
@@ -317,7 +318,7 @@ class MultiphysicsElastic(Material):
         if self.params.apply_shear_correction_factor:
             return block.fields["Surface_Correction_Factor"]
         n = block.fields.num_points
-        if getattr(self, "_ones", None) is None or self._ones.shape[0] != n:
+        if self._ones is None or self._ones.shape[0] != n:
             self._ones = np.ones(n)
         return self._ones
 

@@ -87,6 +87,9 @@ class Pals(Material):
         self.W = EMPTY  # (num_bonds,) omega and sigma of the block's bonds (constant: computed once)
         self.Sg = EMPTY
 
+    def finite_difference_probe_length(self) -> float | None:
+        return self.params.finite_difference_probe_length
+
     @property
     def density(self) -> float:
         return float(self.params.density)

@@ -161,6 +161,9 @@ class BondAssociatedCorrespondence(Material):
         self._work: dict[str, np.ndarray] = {}
         self.omega_table: np.ndarray | None = None
 
+    def finite_difference_probe_length(self) -> float | None:
+        return self.params.finite_difference_probe_length
+
     @property
     def density(self) -> float:
         return float(self.params.density)
@@ -307,7 +310,7 @@ class BondAssociatedCorrespondence(Material):
         """Peridigm's central finite-difference tangent (§12.3) in compiled code
         (:mod:`.fd_tangent_rate`): the probes and arithmetic of the solver's Python path, bit
         for bit."""
-        eps = getattr(target, "probe_length", None)
+        eps = target.probe_length
         if eps is None:
             return False
         import numba

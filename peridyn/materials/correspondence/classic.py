@@ -88,8 +88,12 @@ class ClassicCorrespondence(Material):
                                         plane_strain=params.plane_strain, plane_stress=params.plane_stress)
         self.c1 = ((18.0 * params.hourglass_coefficient) * self.K) / PI
         self._work: dict[str, np.ndarray] = {}
+        self.omega_table: np.ndarray | None = None  # an expression influence function's, tabulated once
 
     requires_constant_horizon = False  # the per-point Horizon field is used
+
+    def finite_difference_probe_length(self) -> float | None:
+        return self.params.finite_difference_probe_length
 
     @property
     def density(self) -> float:
@@ -129,7 +133,7 @@ class ClassicCorrespondence(Material):
     # -- helpers ------------------------------------------------------------------------------
     def _omega(self, block: BlockView):
         inf = block.influence
-        table = getattr(self, "omega_table", None)
+        table = self.omega_table
         if inf.needs_table and table is None:
             s, nl = block.fields, block.bonds
             table = self.omega_table = inf.table_for(nl.offsets, nl.neighbors, s["Model_Coordinates"], np.arange(block.start, block.stop), block.horizon)
@@ -221,21 +225,12 @@ class ClassicCorrespondence(Material):
     def _temperature_change(self, block: BlockView) -> tuple[np.ndarray, np.ndarray]:
         return np.zeros(0), np.zeros(0)
 
-    def _probe_length(self, block: BlockView, target) -> float | None:
-        """The finite-difference probe: the material's ``Finite Difference Probe Length``, else
-        the one the tangent target carries for this block (the solver's, or Peridigm's default)."""
-        own = getattr(self.params, "finite_difference_probe_length", None)
-        if own is not None:
-            return float(own)
-        carried = getattr(target, "probe_length", None)
-        return float(carried) if carried is not None else None
-
     def tangent(self, block: BlockView, target) -> bool:
         """Peridigm's central finite-difference tangent (§12.3) of the block's points in
         compiled code (:mod:`.fd_tangent`): the same probes, arithmetic and order as the
         solver's Python finite-difference path, without a Python call per probe. Returns False
         (the Python path) only when the probe length cannot be determined."""
-        eps = self._probe_length(block, target)
+        eps = target.probe_length  # the material's own, else the solver's (peridyn.solvers.linalg.tangent)
         if eps is None:
             return False
         import numba

@@ -110,6 +110,11 @@ class HypoelasticCorrespondence(Material):
         self.K, self.G = bulk_and_shear(params.bulk_modulus, params.shear_modulus, params.youngs_modulus, params.poissons_ratio,
                                         plane_strain=params.plane_strain, plane_stress=params.plane_stress)
         self.table = EMPTY1
+        self._d: np.ndarray | None = None
+        self._N: np.ndarray | None = None
+
+    def finite_difference_probe_length(self) -> float | None:
+        return self.params.finite_difference_probe_length
 
     @property
     def density(self) -> float:
@@ -283,7 +288,7 @@ class HypoelasticCorrespondence(Material):
         bit. An expression influence function (ω at deformed lengths, re-tabulated per probe)
         keeps the Python path (returns False)."""
         inf = block.influence
-        eps = getattr(target, "probe_length", None)
+        eps = target.probe_length
         if eps is None or (inf is not None and inf.kind == TABLE):
             return False
         import numba
@@ -326,14 +331,14 @@ class HypoelasticCorrespondence(Material):
         return True
 
     def _scratch_d(self, n: int) -> np.ndarray:
-        d = getattr(self, "_d", None)
+        d = self._d
         if d is None or d.shape[0] != n:
             d = self._d = np.zeros((n, 9))
         return d
 
     def _scratch(self, n: int) -> np.ndarray:
         """(n, 9) scratch for the non-homogeneity integrals when Nonhomogeneous_Integral is not output."""
-        N = getattr(self, "_N", None)
+        N = self._N
         if N is None or N.shape[0] != n:
             N = self._N = np.zeros((n, 9))
         return N

@@ -43,6 +43,12 @@ class Verlet(Solver):
     #: the placement of the run in progress (``steps``), None before it starts
     placed: Placement | None = None
 
+    @classmethod
+    def explicit_step(cls, params: VerletSection) -> tuple[float | None, float | None]:
+        v = params.verlet
+        fixed = v.fixed_dt * v.safety_factor if v.fixed_dt is not None and v.safety_factor is not None else v.fixed_dt
+        return fixed, v.safety_factor  # Peridigm multiplies a Fixed dt by the Safety Factor too
+
     def planned_time_step(self, sim) -> float:
         return self.time_step(sim, warn=False)[0]
 

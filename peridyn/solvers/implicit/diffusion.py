@@ -80,7 +80,7 @@ from ..linalg.linear import (
     seq_dot,
     seq_norm2,
 )
-from .problem import check_time_steps, load_times, planned_load_steps, threads_for
+from .problem import LoadTimes, check_time_steps, load_times, planned_load_steps, threads_for
 
 log = logging.getLogger("peridyn.solver")
 
@@ -93,9 +93,7 @@ class DiffusionStepError(InstabilityError):
     output of the converged load steps is kept."""
 
 
-class ImplicitDiffusionParams(ModelParams):
-    number_of_load_steps: int | None = Field(None, alias="Number of Load Steps", ge=1, description="load steps from Initial Time to Final Time (needs Final Time)")
-    time_steps: str | None = Field(None, alias="Time Steps", description="times of the load steps, initial time first, e.g. \"0.0 0.5 1.0\"")
+class ImplicitDiffusionParams(LoadTimes):
     relative_tolerance: float = Field(1.0e-6, alias="Relative Tolerance", gt=0, description="residual tolerance relative to the norm of the reactions")
     absolute_tolerance: float | None = Field(None, alias="Absolute Tolerance", gt=0, description="residual tolerance (temperature x volume / time); replaces the relative one")
     maximum_solver_iterations: int = Field(10, alias="Maximum Solver Iterations", ge=0, le=1_000_000, description="Newton iterations per load step")

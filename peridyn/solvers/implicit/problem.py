@@ -20,7 +20,11 @@ import math
 
 import numpy as np
 
+from pydantic import Field
+
 from ...core.errors import InputError
+from ...core.params import ModelParams
+from ...core.solver_section import SolverSection
 from ..linalg.linear import norm_inf, seq_dot, seq_norm2
 from ..linalg.tangent import TangentMatrix
 
@@ -39,14 +43,21 @@ def parse_time_steps(text: str) -> list[float]:
     return out
 
 
-def load_times(section, sublist, *, path: tuple[str, ...], file) -> list[float]:
+class LoadTimes(ModelParams):
+    """The keys of an implicit sublist that give its load steps (:func:`load_times`)."""
+
+    number_of_load_steps: int | None = Field(None, alias="Number of Load Steps", ge=1, description="load steps from Initial Time to Final Time (needs Final Time)")
+    time_steps: str | None = Field(None, alias="Time Steps", description="times of the load steps, initial time first, e.g. \"0.0 0.5 1.0\"")
+
+
+def load_times(section: SolverSection, sublist: LoadTimes, *, path: tuple[str, ...], file) -> list[float]:
     """t_0 .. t_N of a load-stepping solver: t_k = t0 + (k (tf - t0))/N from ``Number of Load
     Steps`` when the section gives ``Final Time``, else the ``Time Steps`` list."""
-    n = getattr(sublist, "number_of_load_steps", None)
+    n = sublist.number_of_load_steps
     if section.given("final_time") and n is not None:
         t0, tf = section.initial_time, section.final_time
         return [t0] + [t0 + ((k + 1) * (tf - t0)) / n for k in range(n)]
-    if getattr(sublist, "time_steps", None) is not None:
+    if sublist.time_steps is not None:
         return parse_time_steps(sublist.time_steps)
     raise InputError(
         "no load steps given",
@@ -56,12 +67,12 @@ def load_times(section, sublist, *, path: tuple[str, ...], file) -> list[float]:
     )
 
 
-def planned_load_steps(section, sublist) -> int | None:
+def planned_load_steps(section: SolverSection, sublist: LoadTimes) -> int | None:
     """The number of load steps :func:`load_times` will give, without building the list."""
-    n = getattr(sublist, "number_of_load_steps", None)
+    n = sublist.number_of_load_steps
     if section.given("final_time") and n is not None:
         return int(n)
-    if getattr(sublist, "time_steps", None) is not None:
+    if sublist.time_steps is not None:
         return max(len(str(sublist.time_steps).split()) - 1, 0)
     return None
 

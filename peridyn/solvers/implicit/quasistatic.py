@@ -51,6 +51,7 @@ from .model_reduction import ModelReductionParams
 from ..monitors.progress import Progress
 from .problem import (
     ImplicitProblem,
+    LoadTimes,
     check_time_steps,
     load_times,
     planned_load_steps,
@@ -96,11 +97,9 @@ class AdaptiveLoadSteppingParams(ModelParams):
         return self
 
 
-class LoadStepKeys(ModelParams):
+class LoadStepKeys(LoadTimes):
     """Keys every load-stepping implicit solver sublist shares."""
 
-    number_of_load_steps: int | None = Field(None, alias="Number of Load Steps", ge=1, description="load steps from Initial Time to Final Time (needs Final Time)")
-    time_steps: str | None = Field(None, alias="Time Steps", description="times of the load steps, initial time first, e.g. \"0.0 0.5 1.0\"")
     relative_tolerance: float = Field(1.0e-6, alias="Relative Tolerance", gt=0, description="residual tolerance relative to the reaction norm")
     absolute_tolerance: float | None = Field(None, alias="Absolute Tolerance", gt=0, description="residual tolerance (force units); replaces the relative one")
 

@@ -42,44 +42,13 @@ from __future__ import annotations
 import dataclasses
 import logging
 import time as _time
-from dataclasses import dataclass
 
 import numpy as np
 
-from ...core.assembly import local_scalar_state_force_kernel, local_vector_force_kernel, scatter_local_kernel
+from ...core.assembly import TangentTarget, local_scalar_state_force_kernel, local_vector_force_kernel, scatter_local_kernel
 from .bsr import PointBlockMatrix
 
 log = logging.getLogger("peridyn.solver")
-
-
-@dataclass
-class TangentTarget:
-    """What ``Material.tangent`` writes into: the BSR arrays of K in row (global-id) numbering
-    and the maps a gather kernel needs.
-
-    indptr (nrows+1,) int64; indices (nnzb,) int32 block columns (row numbering); data
-    (nnzb, 3, 3) float64, ``data[p, d, c] = dF_(row,d)/dy_(col,c)`` (force per length);
-    row_of_local / local_of_row map local point indices and rows (under MPI the rows are the
-    rank's local points, owned then ghosts; nrows = number of local points); eval_rank (n,) is Peridigm's
-    evaluation order of points (block, then global id); in_offsets, in_bonds, sources: the
-    transposed neighbor list (incoming bonds of every point and the owner of every bond);
-    nchunks: number of independent row chunks for ``prange``; max_degree / max_in: the longest
-    neighbor list and incoming list (scratch sizes)."""
-
-    indptr: np.ndarray
-    indices: np.ndarray
-    data: np.ndarray
-    row_of_local: np.ndarray
-    local_of_row: np.ndarray
-    eval_rank: np.ndarray
-    in_offsets: np.ndarray
-    in_bonds: np.ndarray
-    sources: np.ndarray
-    nrows: int
-    nchunks: int
-    max_degree: int
-    max_in: int
-    probe_length: float | None = None  #: the finite-difference probe of the block being filled (L)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -235,7 +204,7 @@ def _num_threads() -> int:
 def _probe_length(sim, blk, probe_length: float | None) -> float:
     """Finite-difference probe: the material's ``Finite Difference Probe Length``, else the
     solver's, else 1e-6 * minElementRadius (Peridigm's default)."""
-    own = getattr(blk.material.params, "finite_difference_probe_length", None)
+    own = blk.material.finite_difference_probe_length()
     if own is not None:
         return float(own)
     if probe_length is not None:
