@@ -194,6 +194,10 @@ class JIntegralDomain(Compute):
     name = "J_Integral"
     Params = JIntegralParams
 
+    @classmethod
+    def output_label(cls, params: JIntegralParams) -> str | None:
+        return params.output_label
+
     def outputs(self, sim):
         return [FieldSpec(self.label, Relation.GLOBAL, 1)]
 

@@ -55,6 +55,10 @@ def _reduce(values: np.ndarray, kind: str, comm) -> np.ndarray:
 
 
 class _FieldReduction(Compute):
+    @classmethod
+    def output_label(cls, params) -> str:
+        return params.output_label
+
     def _variable_spec(self, sim) -> FieldSpec | None:
         var = self.params.variable
         manager = sim.outputs

@@ -438,6 +438,12 @@ class Compute(ABC):
         self.params = params
         self.label = label
 
+    @classmethod
+    def output_label(cls, params: ModelParams) -> str | None:
+        """The name the deck's ``Compute Class Parameters`` entry gives its output (``Output
+        Label``); None (the default): the entry's own name."""
+        return None
+
     @abstractmethod
     def outputs(self, sim: "Simulation") -> list[FieldSpec]:
         """The fields this compute fills (they are allocated when the compute is used)."""

@@ -213,7 +213,7 @@ def reading_field(key: str) -> Any | None:
     while stack:
         cls = stack.pop()
         stack.extend(cls.__subclasses__())
-        if key in getattr(cls, "ignored_keys", ()):
+        if key in cls.ignored_keys:
             continue
         for name, f in cls.model_fields.items():
             if (f.alias or name) == key:

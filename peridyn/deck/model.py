@@ -326,13 +326,13 @@ def parse_deck(source, registry: Registry | None = None) -> Deck:
             errors.append(registry.unknown("compute", cname, path=path + ("Compute Class",), file=file))
             continue
         cls = registry.get("compute", cname, path=path, file=file)
-        if getattr(cls, "Params", None) is None:
+        if cls.Params is None:
             err(f"compute {cname!r} takes no parameters", path + ("Compute Class",), "list it under Output Variables instead")
             continue
         body = {k: v for k, v in raw.items() if k != "Compute Class"}
         params = validate_params(cls.Params, body, path=path, file=file, errors=errors, lines=lines)
         if params is not None:
-            label = getattr(params, "output_label", None) or name
+            label = cls.output_label(params) or name
             computes.append(ModelEntry(label, cname, cls, params, path))
 
     # -- outputs -----------------------------------------------------------------------------------

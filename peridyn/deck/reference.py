@@ -96,11 +96,11 @@ def reference_markdown() -> str:
             if isinstance(cls, Exception):
                 continue
             out += [f"### {name}", "", f"{human.capitalize()}, `{key}: {name}`." if kind != "solver" else f"Solver method `{name}`.", ""]
-            params = getattr(cls, "Params", None)
+            params = cls.Params
             rows = describe_params(params) if params is not None else []
             if kind != "solver":
                 rows = [r for r in rows if r["name"] != key]
             rows += [{"name": k, "type": type_text(IGNORED_KEY_TYPES.get(k) or reading_field(k) or str), "required": False, "default": None,
-                      "description": "accepted and ignored, as Peridigm does"} for k in sorted(getattr(params, "ignored_keys", ()))]
+                      "description": "accepted and ignored, as Peridigm does"} for k in sorted(params.ignored_keys if params is not None else ())]
             out += _table(rows) if params is not None else ["Takes no parameters (ask for it under `Output Variables`).", ""]
     return "\n".join(out).rstrip() + "\n"

@@ -103,7 +103,7 @@ class _Builder:
         props = js.setdefault("properties", {})
         for key in drop:
             props.pop(key, None)
-        for key in sorted(getattr(cls, "ignored_keys", ())):
+        for key in sorted(cls.ignored_keys):
             annotation = IGNORED_KEY_TYPES.get(key) or reading_field(key)
             value = _lenient(TypeAdapter(annotation).json_schema()) if annotation is not None else {}
             props[key] = {**value, "description": "accepted and ignored, as Peridigm does"}
@@ -121,7 +121,7 @@ class _Builder:
         ``spaces``: ' ' may stand for '_' (Compute Class)."""
         branches, patterns, names = [], [], []
         for name, cls in self.registry.all_classes(kind).items():
-            if isinstance(cls, Exception) or getattr(cls, "Params", None) is None:
+            if isinstance(cls, Exception) or cls.Params is None:
                 continue
             body = self.params(cls.Params, drop=drop, extra=extra(cls) if extra else None)
             body["properties"][key] = {"description": f"selects {name}"} | ({} if tidy or spaces else {"const": name})

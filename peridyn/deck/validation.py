@@ -9,11 +9,11 @@ from typing import Any, TypeVar
 from pydantic import BaseModel, ValidationError
 
 from ..core.errors import InputError
-from ..core.params import DECK_CONTEXT, IGNORED_KEY_TYPES, bool_for_number, leaf_types, non_finite, reading_field
+from ..core.params import DECK_CONTEXT, IGNORED_KEY_TYPES, ModelParams, bool_for_number, leaf_types, non_finite, reading_field
 
 log = logging.getLogger("peridyn.deck")
 
-P = TypeVar("P", bound=BaseModel)
+P = TypeVar("P", bound=ModelParams)
 
 
 def _aliases(model: type[BaseModel]) -> list[str]:
@@ -160,7 +160,7 @@ def validate_params(
     if not isinstance(data, Mapping):
         errors.append(InputError(f"expected a list of parameters, got {_describe(data)}", file=file, path=path))
         return None
-    ignored = getattr(model, "ignored_keys", frozenset())
+    ignored = model.ignored_keys
     clean = {}
     for key, value in data.items():
         if key in ignored:

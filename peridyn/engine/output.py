@@ -99,7 +99,7 @@ class OutputManager:
                 return None  # created with the compute classes, below
             if registry.has("compute", name):
                 cls = registry.get("compute", name, path=path or (), file=deck.file)
-                if getattr(cls, "Params", None) is None:
+                if cls.Params is None:
                     add_compute(name, cls())
                     return self.variables.get(name)
             if name in material_fields:
@@ -190,7 +190,7 @@ class OutputManager:
                 cls = registry.get("compute", name)
             except InputError:
                 continue
-            if getattr(cls, "Params", None) is None:
+            if cls.Params is None:
                 names.append(name)
         return names
 
@@ -276,7 +276,7 @@ def model_producers(registry) -> dict[str, dict[str, list[str]]]:
     out: dict[str, dict[str, list[str]]] = {}
     for kind, human in (("material", "material"), ("damage", "damage model")):
         for name, cls in registry.all_classes(kind).items():
-            if isinstance(cls, Exception) or getattr(cls, "Params", None) is None:
+            if isinstance(cls, Exception) or cls.Params is None:
                 continue
             try:
                 params = cls.Params.model_construct(**_stand_in_values(cls.Params))

@@ -57,7 +57,8 @@ def _dependencies(fn: Callable, seen: set[int]) -> list[str]:
 
 def law_functions(law: Law) -> dict[str, Callable]:
     """The functions a law names, by role."""
-    return {role: getattr(law, role) for role in ROLES if getattr(law, role, None) is not None}
+    declared = vars(law)  # the law's dataclass fields
+    return {role: declared[role] for role in ROLES if declared.get(role) is not None}
 
 
 def law_digest(law: Law, template: str) -> str:
@@ -155,7 +156,7 @@ def loop_body(law: Law, indent: str, unsigned: bool = False) -> str:
     ``b`` is a uint64 and ``j`` is masked to its non-negative int32 range, so numba emits no
     negative-index wraparound for any array the law indexes with them (one cube40 force pass:
     33 -> 27 ms, one thread); the values are the same."""
-    gate = getattr(law, "gate", None) is not None
+    gate = isinstance(law, (PointSum, PairForce)) and law.gate is not None
     if unsigned:
         lines = ["for b in range(uint64(offsets[i]), uint64(offsets[i + 1])):"]
     else:
@@ -278,7 +279,7 @@ def sum_slots(law: Law, i: str) -> list[str]:
 
 def mirrorable(law: Law) -> bool:
     """Whether ``law`` has a mirrored kernel (:func:`mirror_body`): sums over bonds."""
-    return isinstance(law, (PointSum, PairForce)) and getattr(law, "mirror", True)
+    return isinstance(law, (PointSum, PairForce)) and law.mirror
 
 
 def mirror_body(law: Law, indent: str) -> str:
@@ -288,7 +289,7 @@ def mirror_body(law: Law, indent: str) -> str:
     (bond ``rb`` = j's bond back to i, found by j's ``cursor``) to ``out[j]``. Rows run in their
     order, so every point receives its terms in the order of its own row, the order the gather
     kernel sums them in: the same bits, with half the square roots and neighbor reads."""
-    gate = getattr(law, "gate", None) is not None
+    gate = isinstance(law, (PointSum, PairForce)) and law.gate is not None
     lines = [
         "for b in range(uint64(upper[i]), uint64(offsets[i + 1])):",
         "    j = neighbors[b] & 0x7FFFFFFF",

@@ -54,11 +54,35 @@ class Entry:
     _cls: Any = field(default=None, repr=False)
 
     def load(self) -> type:
+        """The class, imported on first use; TypeError when it does not keep its kind's contract."""
         if self._cls is None:
             module_name, _, attr = self.target.partition(":")
             module = importlib.import_module(module_name)
-            self._cls = getattr(module, attr)
+            cls = getattr(module, attr)
+            _check_contract(self.kind, self.target, cls)
+            self._cls = cls
         return self._cls
+
+
+def _check_contract(kind: str, target: str, cls: Any) -> None:
+    """A model class subclasses its kind's contract and declares its ``Params`` (the engine reads
+    both without probing)."""
+    from ..core.conditions import Condition
+    from ..core.discretization import DiscretizationReader
+    from ..core.interfaces import Compute, ContactModel, DamageModel, Material, Solver
+    from ..core.params import ModelParams
+    from ..core.traversal import Backend
+
+    contract = {"material": Material, "damage": DamageModel, "contact": ContactModel, "compute": Compute, "solver": Solver,
+                "boundary_condition": Condition, "discretization": DiscretizationReader, "backend": Backend}[kind]
+    if not (isinstance(cls, type) and issubclass(cls, contract)):
+        raise TypeError(f"{target} is not a subclass of {contract.__module__}.{contract.__name__}")
+    if kind == "backend":
+        return
+    params = next((vars(k)["Params"] for k in cls.__mro__ if "Params" in vars(k)), ModelParams)
+    if params is ModelParams or not (params is None and kind == "compute" or isinstance(params, type) and issubclass(params, ModelParams)):
+        raise TypeError(f"{target} declares no Params, a subclass of peridyn.core.params.ModelParams (the model of its deck keys; "
+                        "None for a compute without keys)")
 
 
 class Registry:

@@ -170,6 +170,7 @@ class _Plugin:
 def test_a_plugin_material_is_checked_with_its_own_parameters(validator):
     from pydantic import Field
 
+    from peridyn.core.interfaces import Material
     from peridyn.core.params import ModelParams
     from peridyn.plugins.hookspecs import hookimpl
     from peridyn.testing import isolated_registry
@@ -180,7 +181,7 @@ def test_a_plugin_material_is_checked_with_its_own_parameters(validator):
 
     global SchemaTestMaterial
 
-    class SchemaTestMaterial:
+    class SchemaTestMaterial(Material):
         name = "Schema Test Material"
 
     SchemaTestMaterial.Params = Params

@@ -91,3 +91,37 @@ def test_plugin_module_failing_when_its_model_is_used(site):
     reg = manager.build_registry()
     with pytest.raises(InputError, match="could not be loaded from plugin 'fake_lazy'"):
         build_simulation(cube_deck({"Material Model": "Third Party Springs", "Density": 1.0}, n=2), registry=reg)
+
+
+CONTRACTLESS = '''
+from peridyn.core.params import ModelParams
+from peridyn.core.interfaces import Material
+from peridyn.plugins.hookspecs import hookimpl
+
+
+class Loose:  # looks like a material, is not one
+    name = "Loose"
+    Params = ModelParams
+
+
+class NoKeys(Material):  # a material with no deck keys declared
+    name = "No Keys"
+
+
+@hookimpl
+def peridyn_materials():
+    return [("Loose Springs", "fake_loose:Loose"), ("Keyless Springs", "fake_loose:NoKeys")]
+'''
+
+
+@pytest.mark.parametrize("name, words", [("Loose Springs", "is not a subclass of peridyn.core.interfaces.Material"),
+                                         ("Keyless Springs", "declares no Params")])
+def test_a_model_class_that_breaks_its_contract_is_refused_by_name(site, name, words):
+    """The engine reads a model's contract members without probing, so the registry refuses a
+    class that is not the contract's subclass or declares no Params, naming it."""
+    fake_distribution(site, "fake-loose", "fake_loose", CONTRACTLESS)
+    reg = manager.build_registry()
+    with pytest.raises(InputError, match="could not be loaded from plugin 'fake_loose'") as err:
+        build_simulation(cube_deck({"Material Model": name, "Density": 1.0}, n=2), registry=reg)
+    assert words in str(err.value)
+    assert isinstance(reg.all_classes("material")[name], TypeError)
