@@ -173,7 +173,7 @@ def cmd_plugins(args) -> int:
                 print(f"  {name}  [{entry.plugin}]  failed to load: {exc}")
                 continue
             print(f"  {name}  [{entry.plugin}]" + (f"  {cls.description}" if kind == "backend" and cls.description else ""))
-            params = getattr(cls, "Params", None)
+            params = None if kind == "backend" else cls.Params
             if params is None or args.brief:
                 continue
             for row in describe_params(params):

@@ -400,9 +400,14 @@ class DeviatoricParams(IsotropicElasticParams):
     rejected_keys: ClassVar[frozenset[str]] = frozenset()
     #: the probe is read only by the finite-difference tangent (a model without the AD switch has only that one)
     used_when = {"finite_difference_probe_length": UsedWhen(
-        lambda p: not getattr(p, "apply_ad_jacobian", False),
+        lambda p: p.finite_difference_tangent(),
         "the finite-difference tangent is used ('Apply Automatic Differentiation Jacobian' false)", gt=0)}
     model_name: ClassVar[str] = "this material"
+
+    def finite_difference_tangent(self) -> bool:
+        """Whether the implicit solvers' tangent of the model is by finite differences (True
+        unless an exact tangent is asked for: 'Apply Automatic Differentiation Jacobian')."""
+        return True
 
     @model_validator(mode="before")
     @classmethod

@@ -50,8 +50,6 @@ def parameters(name: str, horizon: float) -> dict[str, Any] | str:
         cls = get_registry().get("material", name)
     except Exception as exc:  # noqa: BLE001 - reported as the material's reason
         return f"does not load: {exc}"
-    if not hasattr(cls, "Params"):
-        return "has no Params to fill"
     keys, required = _aliases(cls)
     if "Density" not in keys:
         return "not a mechanical model (no Density)"

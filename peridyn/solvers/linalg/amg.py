@@ -87,7 +87,7 @@ class AMGPreconditioner:
         d = np.asarray(diagonal, dtype=float)
         safe = np.where(d != 0.0, d, 1.0)
         self.dinv = np.where(d != 0.0, 1.0 / safe, 0.0)
-        if getattr(self, "omega", None) is not None:
+        if self.omega is not None:
             return
         v = np.random.default_rng(12345).standard_normal(self.n)
         rho = 1.0

@@ -55,9 +55,13 @@ import logging
 import math
 import time as _time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numba import njit
+
+if TYPE_CHECKING:
+    from .bsr import PointBlockMatrix
 
 log = logging.getLogger("peridyn.solver")
 
@@ -319,6 +323,7 @@ class LinearSolver:
     _matrix: object = field(default=None, repr=False)
     _prepared: object = field(default=None, repr=False)
     _chosen: str = field(default="", repr=False)
+    _amg_iterations: int | None = field(default=None, repr=False)  #: of the first solve with the current hierarchy
 
     def chosen(self, ndof: int) -> str:
         if self.method == "Auto":
@@ -327,10 +332,10 @@ class LinearSolver:
             return "AMG" if self.switched else "Belos"
         return self.method
 
-    def set_matrix(self, T) -> None:
-        """Use the current values of TangentMatrix ``T`` (call again after they change)."""
+    def set_matrix(self, T: PointBlockMatrix) -> None:
+        """Use the current values of the tangent ``T`` (call again after they change)."""
         self._matrix = T
-        self._chosen = self.chosen(getattr(T, "ndof", T.shape[0]))
+        self._chosen = self.chosen(T.ndof)
         if self._chosen != "AMG":
             self._prepared = None
         elif self._prepared is not None and self._comm is None:
@@ -339,7 +344,7 @@ class LinearSolver:
     @property
     def _comm(self):
         T = self._matrix
-        return T.comm if getattr(T, "parallel", False) else None
+        return T.comm if T.parallel else None
 
     def _prepare(self):
         t0 = _time.perf_counter()
@@ -415,7 +420,7 @@ class LinearSolver:
             res = SolveResult(x, ok, 1, "" if ok else "the direct solver produced non-finite values (singular matrix?)")
         else:
             res = self._amg_solve(b, maxiter)
-            first = getattr(self, "_amg_iterations", None)
+            first = self._amg_iterations
             if not res.converged or (first is not None and res.iterations > 2 * max(first, 5)):
                 self._prepared = None  # stale hierarchy: rebuild for the current tangent
                 self._prepare()

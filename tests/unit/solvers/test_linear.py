@@ -151,7 +151,7 @@ def test_adaptive_keeps_a_cg_breakdown_a_failure():
     d[-1] = -1.0
 
     class Matrix:
-        shape = (n, n)
+        ndof = n  # what LinearSolver reads of a tangent
         parallel = False
 
         def matvec(self, p, out=None):
