@@ -32,6 +32,7 @@ from ...kernels.gathers import gather_bond_scalar_kernel
 from ...core.errors import InputError, InstabilityError
 from ..linalg.coupled_tangent import CoupledTangent
 from ..linalg.linear import LinearSolver, norm_inf, seq_dot, seq_norm2
+from .load_steps import line_search
 from .problem import load_times, solver_stats
 
 log = logging.getLogger("peridyn.solver")
@@ -149,7 +150,6 @@ class CoupledProblem:
 class CoupledQuasiStaticRun:
     """One coupled QuasiStatic solver run (see module docstring)."""
 
-    FIRST_CANDIDATES = (0.1, 0.2, 0.3, 0.5, 0.75, 1.0)
 
     def __init__(self, solver, sim) -> None:
         from .load_steps import DAMPED_TANGENT_INTERVAL, PURE_NEWTON_STEPS
@@ -255,32 +255,7 @@ class CoupledQuasiStaticRun:
             raise InstabilityError(f"{self.section}: load step {self.step}: the residual is not finite")
         if rho0 == 0.0:
             return 0.0
-        best_alpha, best = 1.0, 1.0e50
-        eps = 1.0e-4
-        _, r_plus = self.trial_residual(D0 + eps * lhs)
-        S = prob.dot(lhs_rows, r0)
-        S_plus = prob.dot(lhs_rows, r_plus)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            guess = float(np.float64(-1.0 * eps * S) / np.float64(S_plus - S))
-        candidates = ([guess] if -0.1 < guess < 10.0 else []) + list(self.FIRST_CANDIDATES)
-        for alpha in candidates:
-            rho, _ = self.trial_residual(D0 + eps * lhs)  # Peridigm: epsilon, not alpha
-            if math.isfinite(rho) and rho < best:
-                best_alpha, best = alpha, rho
-        if (rho0 - best) / rho0 > 0.02:
-            return best_alpha
-        from .load_steps import SECOND_CANDIDATES
-
-        increases = []
-        for alpha in SECOND_CANDIDATES:
-            rho, _ = self.trial_residual(D0 + alpha * lhs)
-            if math.isfinite(rho):
-                if rho < best:
-                    best_alpha, best = alpha, rho
-                elif rho > rho0:
-                    increases.append((alpha, (rho - rho0) / rho0))
-        if (rho0 - best) / rho0 > 0.0001:
-            return best_alpha
+        return line_search(self.trial_residual, D0, lhs, lhs_rows, rho0, r0, prob.dot, self.section, first_pass_at_epsilon=True)
         log.info("%s: line search cannot reduce the residual; trying to leave a local minimum by raising it about 10%%", self.section)
         closest = 1.0e50
         for alpha, inc in increases:

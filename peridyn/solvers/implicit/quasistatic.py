@@ -60,10 +60,9 @@ from .problem import (
 )
 from .load_steps import (
     DAMPED_TANGENT_INTERVAL,
-    FIRST_CANDIDATES,
     PURE_NEWTON_STEPS,
-    SECOND_CANDIDATES,
     LoadStepError,
+    line_search,
     change_output_frequency,
     fmod_zero,
     halve_load_step,
@@ -283,30 +282,7 @@ class QuasiStaticRun:
             )
         if rho0 == 0.0:
             return 0.0
-        best_alpha, best = 1.0, 1.0e50
-        eps = 1.0e-4
-        _, r_plus = self.trial_residual(du0 + eps * lhs)
-        S = prob.dot(lhs_rows, r0)
-        S_plus = prob.dot(lhs_rows, r_plus)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            guess = float(np.float64(-1.0 * eps * S) / np.float64(S_plus - S))
-        candidates = ([guess] if -0.1 < guess < 10.0 else []) + list(FIRST_CANDIDATES)
-        for alpha in candidates:
-            rho, _ = self.trial_residual(du0 + alpha * lhs)
-            if math.isfinite(rho) and rho < best:
-                best_alpha, best = alpha, rho
-        if (rho0 - best) / rho0 > 0.02:
-            return best_alpha
-        increases = []
-        for alpha in SECOND_CANDIDATES:
-            rho, _ = self.trial_residual(du0 + alpha * lhs)
-            if math.isfinite(rho):
-                if rho < best:
-                    best_alpha, best = alpha, rho
-                elif rho > rho0:
-                    increases.append((alpha, (rho - rho0) / rho0))
-        if (rho0 - best) / rho0 > 0.0001:
-            return best_alpha
+        return line_search(self.trial_residual, du0, lhs, lhs_rows, rho0, r0, prob.dot, self.section)
         log.info("%s: line search cannot reduce the residual; trying to leave a local minimum by raising it about 10%%", self.section)
         target, closest = 0.1, 1.0e50
         for alpha, inc in increases:
