@@ -181,3 +181,18 @@ def test_plugin_multiphysics_material_is_recognised_by_its_flag():
         assert sim.deck.multiphysics
         with pytest.raises(InputError, match="needs multiphysics enabled"):
             build_simulation(cube_deck({"Material Model": "Third Party Poro", **ELASTIC, **FLUID}, n=3))
+
+
+@pytest.mark.parametrize("name", BUILTIN)
+def test_a_material_with_a_probe_length_key_hands_it_to_the_tangent(name):
+    """Every material whose deck keys include 'Finite Difference Probe Length' returns it from
+    ``finite_difference_probe_length()`` (the tangent reads it there, over the solver's); the
+    others keep the contract's None."""
+    from types import SimpleNamespace
+
+    cls = get_registry().get("material", name)
+    own = SimpleNamespace(params=SimpleNamespace(finite_difference_probe_length=1.25e-7))
+    if "finite_difference_probe_length" in cls.Params.model_fields:
+        assert cls.finite_difference_probe_length(own) == 1.25e-7
+    else:
+        assert cls.finite_difference_probe_length is Material.finite_difference_probe_length
