@@ -50,14 +50,6 @@ class PlasticParams(DeviatoricParams):
     #: with plasticity disabled Peridigm sets sigma_y to DBL_MAX and never reads the deck's value
     used_when = {"yield_stress": UsedWhen(lambda p: not p.disable_plasticity, "plasticity is enabled ('Disable Plasticity' false)", gt=0)}
 
-    #: both plastic models have an exact tangent; each states its own default
-    apply_ad_jacobian: bool = Field(
-        False, alias="Apply Automatic Differentiation Jacobian", description="implicit solvers: exact tangent (true) or central finite differences (false)"
-    )
-
-    def finite_difference_tangent(self) -> bool:
-        return not self.apply_ad_jacobian
-
     def planar_thickness(self) -> float | None:
         """The plate thickness (L) of a planar problem's 2-D yield value; None in 3-D."""
         return None
@@ -86,6 +78,9 @@ class ElasticPlasticParams(PlasticParams):
 
     def planar_thickness(self) -> float | None:
         return self.thickness if self.planar_problem else None
+
+    def finite_difference_tangent(self) -> bool:
+        return not self.apply_ad_jacobian
 
 
 def ep_yield_value(params: PlasticParams, horizon: float) -> float:

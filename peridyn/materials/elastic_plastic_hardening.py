@@ -57,6 +57,9 @@ class ElasticPlasticHardeningParams(PlasticParams):
     def hardening_slope(self) -> float:
         return self.hardening_modulus
 
+    def finite_difference_tangent(self) -> bool:
+        return not self.apply_ad_jacobian
+
 
 @njit(cache=True, inline="always", error_model="numpy")
 def _sheared_length(mode, x, i, j, d0, d1, d2):
