@@ -31,12 +31,13 @@ import math
 from typing import Any, ClassVar
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 from pydantic import Field, field_validator, model_validator
 
 from ..core.errors import InputError
 from ..core.interfaces import VISIT_FROM_PARTNER, VISIT_FROM_POINT, ContactModel, ContactPairs, ContactState, ElasticModuli
 from ..core.params import ModelParams, ParamKeyError
+from ..core.traversal import Backend, PointUpdate
 
 #: half of PeriLab's 3D penalty constant 9 / pi: each of a pair's two visits adds this much
 HALF_PENALTY = 4.5 / math.pi
@@ -73,62 +74,78 @@ class PenaltyContactParams(ModelParams):
 
 
 @njit(cache=True, inline="always")
+def _fifth_power(h):
+    """h^5 as numba computes ``h ** 5`` (by squaring), written out so that every target, the
+    GPU simulator's Python included, gets the same bits."""
+    h2 = h * h
+    return h * (h2 * h2)
+
+
+@njit(cache=True, inline="always")
 def pair_coefficient(visit, p, j, block, horizon, coef):
     """kappa of a pair (M L^-6 T^-2 per unit penetration and partner volume): for each point whose
     visit the pair has, its half of the law, coef_b / delta_b^5 with coef_b = 4.5 c_b / pi."""
     kappa = 0.0
     if visit & VISIT_FROM_POINT:
-        kappa += coef[block[p]] / horizon[p] ** 5
+        kappa += coef[block[p]] / _fifth_power(horizon[p])
     if visit & VISIT_FROM_PARTNER:
-        kappa += coef[block[j]] / horizon[j] ** 5
+        kappa += coef[block[j]] / _fifth_power(horizon[j])
     return kappa
 
 
-# not a loop law: the rows are contact pairs (ContactPairs: deformed-configuration partners with visit flags, ghosts), not bonds
-@njit(cache=True, parallel=True, error_model="numpy")
-def penalty_force_kernel(num_owned, offsets, partners, visits, block, horizon, y, v, volume, rc, coef, mu, out):
-    """out[p] += the penalty contact force density on every owned point p (M L^-2 T^-2), a
-    gather over p's row in its order. coef (num_blocks,): 4.5 c_contact / pi per block (M L^-1
-    T^-2). Shapes: offsets (num_owned + 1,); partners, visits (num_pairs,); block, horizon, volume
-    (n,); y, v (n, 3); out (num_owned, 3)."""
-    rc2 = rc * rc
-    for p in prange(num_owned):
-        fx = 0.0
-        fy = 0.0
-        fz = 0.0
-        for q in range(offsets[p], offsets[p + 1]):
-            j = partners[q]
-            dx = y[j, 0] - y[p, 0]
-            dy = y[j, 1] - y[p, 1]
-            dz = y[j, 2] - y[p, 2]
-            s2 = dx * dx + dy * dy + dz * dz
-            if not s2 < rc2:
-                continue
-            kappa = pair_coefficient(visits[q], p, j, block, horizon, coef)
-            d = math.sqrt(s2)
-            g = kappa * (rc - d) * volume[j]  # |normal force density| on p
-            ux = dx / d
-            uy = dy / d
-            uz = dz / d
-            fx -= g * ux
-            fy -= g * uy
-            fz -= g * uz
-            if mu != 0.0:
-                ap = v[p, 0] * ux + v[p, 1] * uy + v[p, 2] * uz
-                aj = v[j, 0] * ux + v[j, 1] * uy + v[j, 2] * uz
-                # p's tangential velocity relative to the pair's mean: half the tangential difference
-                rx = 0.5 * ((v[p, 0] - ap * ux) - (v[j, 0] - aj * ux))
-                ry = 0.5 * ((v[p, 1] - ap * uy) - (v[j, 1] - aj * uy))
-                rz = 0.5 * ((v[p, 2] - ap * uz) - (v[j, 2] - aj * uz))
-                rn = math.sqrt(rx * rx + ry * ry + rz * rz)
-                if rn != 0.0:
-                    m = mu * g / rn
-                    fx -= m * rx
-                    fy -= m * ry
-                    fz -= m * rz
-        out[p, 0] += fx
-        out[p, 1] += fy
-        out[p, 2] += fz
+@njit(cache=True, inline="always", error_model="numpy")
+def penalty_row(p, lo, hi, partners, visits, block, horizon, y, v, volume, rc, rc2, coef, mu):
+    """The penalty contact force density on owned point p (M L^-2 T^-2): a gather over p's row
+    [lo, hi) of the contact pairs in its order. coef (num_blocks,): 4.5 c_contact / pi per block
+    (M L^-1 T^-2). Shapes: partners, visits (num_pairs,); block, horizon, volume (n,); y, v (n, 3)."""
+    fx = 0.0
+    fy = 0.0
+    fz = 0.0
+    for q in range(lo, hi):
+        j = partners[q]
+        dx = y[j, 0] - y[p, 0]
+        dy = y[j, 1] - y[p, 1]
+        dz = y[j, 2] - y[p, 2]
+        s2 = dx * dx + dy * dy + dz * dz
+        if not s2 < rc2:
+            continue
+        kappa = pair_coefficient(visits[q], p, j, block, horizon, coef)
+        d = math.sqrt(s2)
+        g = kappa * (rc - d) * volume[j]  # |normal force density| on p
+        ux = dx / d
+        uy = dy / d
+        uz = dz / d
+        fx -= g * ux
+        fy -= g * uy
+        fz -= g * uz
+        if mu != 0.0:
+            ap = v[p, 0] * ux + v[p, 1] * uy + v[p, 2] * uz
+            aj = v[j, 0] * ux + v[j, 1] * uy + v[j, 2] * uz
+            # p's tangential velocity relative to the pair's mean: half the tangential difference
+            rx = 0.5 * ((v[p, 0] - ap * ux) - (v[j, 0] - aj * ux))
+            ry = 0.5 * ((v[p, 1] - ap * uy) - (v[j, 1] - aj * uy))
+            rz = 0.5 * ((v[p, 2] - ap * uz) - (v[j, 2] - aj * uz))
+            rn = math.sqrt(rx * rx + ry * ry + rz * rz)
+            if rn != 0.0:
+                m = mu * g / rn
+                fx -= m * rx
+                fy -= m * ry
+                fz -= m * rz
+    return fx, fy, fz
+
+
+def _penalty_force(p, args):
+    """out[p] += the penalty contact force density on owned point p (``penalty_row``); args
+    (offsets, partners, visits, block, horizon, y, v, volume, rc, coef, mu, out), out (num_owned, 3)."""
+    offsets, partners, visits, block, horizon, y, v, volume, rc, coef, mu, out = args
+    fx, fy, fz = penalty_row(p, offsets[p], offsets[p + 1], partners, visits, block, horizon, y, v, volume, rc, rc * rc, coef, mu)
+    out[p, 0] += fx
+    out[p, 1] += fy
+    out[p, 2] += fz
+
+
+#: the force of every owned point, a gather over its row: the same law on every backend
+PENALTY_FORCE = PointUpdate(_penalty_force)
 
 
 # not a loop law: one running sum over every contact pair of every owned point (a serial reduction)
@@ -163,7 +180,7 @@ class PenaltyContact(ContactModel):
 
     name = "Penalty Contact"
     Params = PenaltyContactParams
-    devices = frozenset({"cpu"})
+    devices = frozenset({"cpu", "gpu"})  # force_on runs on either backend
     stiffness_key: ClassVar[str] = "Contact Stiffness' or 'Penalty Factor"
 
     def __init__(self, params: ModelParams, *, options: dict[str, Any] | None = None) -> None:
@@ -216,10 +233,19 @@ class PenaltyContact(ContactModel):
             return (2.0 * float(np.max(self._coef))) / np.asarray(horizon, float) ** 5
 
     def force(self, pairs: ContactPairs, state: ContactState, out: np.ndarray) -> None:
-        penalty_force_kernel(
-            state.num_owned, pairs.offsets, pairs.partners, pairs.visits, state.block, state.horizon, state.y, state.v,
-            state.volume, float(self.params.contact_radius), self._block_coef(state.block), self.mu, out,
-        )
+        from ..kernels import default_backend
+
+        self.force_on(default_backend(), pairs, state, out)
+
+    def force_on(self, backend: Backend, pairs: ContactPairs, state: ContactState, out: Any) -> None:
+        """``force`` on ``backend``'s arrays: the ``PENALTY_FORCE`` law run there, the blocks'
+        coefficients copied there once (a GPU run's model is built with its blocks)."""
+        if state.num_owned:
+            coef = backend.resident(self._block_coef(state.block) if backend.device == "cpu" else self._coef)
+            backend.kernel(PENALTY_FORCE)(0, state.num_owned, (
+                pairs.offsets, pairs.partners, pairs.visits, state.block, state.horizon, state.y, state.v, state.volume,
+                float(self.params.contact_radius), coef, float(self.mu), out,
+            ))
 
     def potential_energy(self, pairs: ContactPairs, state: ContactState) -> float:
         return float(penalty_energy_kernel(

@@ -13,6 +13,7 @@ import numpy as np
 
 from .fields import FieldSpec
 from .params import ModelParams
+from .traversal import Backend
 
 #: bits of ``ContactPairs.visits``: point i visits j (j is not in i's reference bond list) ...
 VISIT_FROM_POINT = 1
@@ -107,6 +108,13 @@ class ContactModel(ABC):
     @abstractmethod
     def force(self, pairs: ContactPairs, state: ContactState, out: np.ndarray) -> None:
         """Add the contact force density of the owned points to ``out`` (num_owned, 3)."""
+
+    def force_on(self, backend: Backend, pairs: ContactPairs, state: ContactState, out: Any) -> None:
+        """``force`` with the pairs, the state and ``out`` where ``backend`` keeps them (a GPU's
+        device arrays). A model that lists "gpu" in ``devices`` overrides it with its force as
+        a law the backend compiles (a :class:`~peridyn.core.traversal.PointUpdate` over the
+        owned points, each gathering its row); the default runs ``force`` (host arrays)."""
+        self.force(pairs, state, out)
 
     def potential_energy(self, pairs: ContactPairs, state: ContactState) -> float | None:
         """Energy (M L^2 T^-2) held by the owned points' visits now, or None if unknown (the

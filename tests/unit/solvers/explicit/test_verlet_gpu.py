@@ -72,9 +72,14 @@ def with_bond_filter(deck: dict) -> dict:
     return deck
 
 
-def contact_deck(steps: int = 8, dt: float = 5.0e-4) -> dict:
+SHORT_RANGE = {"Contact Model": "Short Range Force", "Contact Radius": 0.9, "Spring Constant": 1.0e9, "Friction Coefficient": 0.3}
+#: PeriLab's law, its stiffness from each block's bulk modulus
+PENALTY = {"Contact Model": "Penalty Contact", "Contact Radius": 0.9, "Penalty Factor": 2.0, "Friction Coefficient": 0.3}
+
+
+def contact_deck(steps: int = 8, dt: float = 5.0e-4, model: dict = SHORT_RANGE) -> dict:
     """Two 3x3x3 boxes of points 1 apart (no bonds between them) flying into each other at 2 x 100 m/s,
-    offset by half a spacing across, with Short Range Force contact and friction."""
+    offset by half a spacing across, with contact ``model`` (Short Range Force) and friction."""
     disc = {"Type": "Shapes", "Omit Bonds Between Blocks": "All",
             "Shapes": {"Left": {"Shape": "Box", "Block": "block_1", "Min": [0.0, 0.0, 0.0], "Max": [3.0, 3.0, 3.0], "Spacing": 1.0},
                        "Right": {"Shape": "Box", "Block": "block_2", "Min": [3.5, 0.5, 0.0], "Max": [6.5, 3.5, 3.0], "Spacing": 1.0}}}
@@ -86,8 +91,7 @@ def contact_deck(steps: int = 8, dt: float = 5.0e-4) -> dict:
                                     "Fly": {"Type": "Initial Velocity", "Node Set": "All Node Set", "Coordinate": "x",
                                             "Value": "100.0-200.0*floor(x/3.25)"}},
             "Contact": {"Search Radius": 2.0, "Search Frequency": 3,
-                        "Models": {"C": {"Contact Model": "Short Range Force", "Contact Radius": 0.9, "Spring Constant": 1.0e9,
-                                         "Friction Coefficient": 0.3}}},
+                        "Models": {"C": dict(model)}},
             "Solver": {"Initial Time": 0.0, "Final Time": steps * dt, "Verlet": {"Fixed dt": dt}},
             "Output": {"Output File Type": "ExodusII", "Output Filename": "run", "Output Frequency": 2,
                        "Output Variables": {"Displacement": True, "Velocity": True, "Force_Density": True, "Contact_Force_Density": True}}}
@@ -108,6 +112,7 @@ CASES = {
                                                 damage={"Damage Model": "Critical Stretch", "Critical Stretch": 0.0004},
                                                 conditions=LOADS, variables=("Displacement", "Velocity", "Force_Density", "Damage")),
     "lps_two_bodies_contact_friction": contact_deck(),
+    "lps_two_bodies_penalty_contact_friction": contact_deck(model=PENALTY),
     "bond_based_initial_damage_plane": lattice_deck(
         {"Material Model": "Elastic Bond Based", "Density": 7800.0, "Bulk Modulus": 130.0e9},
         damage={"Damage Model": "Initial Damage", "Bond Filters": {"Cut": PLANE}}, variables=("Displacement", "Velocity", "Damage")),
