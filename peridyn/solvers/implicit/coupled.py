@@ -150,7 +150,6 @@ class CoupledProblem:
 class CoupledQuasiStaticRun:
     """One coupled QuasiStatic solver run (see module docstring)."""
 
-
     def __init__(self, solver, sim) -> None:
         from .load_steps import DAMPED_TANGENT_INTERVAL, PURE_NEWTON_STEPS
 
@@ -256,12 +255,6 @@ class CoupledQuasiStaticRun:
         if rho0 == 0.0:
             return 0.0
         return line_search(self.trial_residual, D0, lhs, lhs_rows, rho0, r0, prob.dot, self.section, first_pass_at_epsilon=True)
-        log.info("%s: line search cannot reduce the residual; trying to leave a local minimum by raising it about 10%%", self.section)
-        closest = 1.0e50
-        for alpha, inc in increases:
-            if abs(inc - 0.1) < closest:
-                best_alpha, closest = alpha, abs(inc - 0.1)
-        return best_alpha
 
     # -- one load step --------------------------------------------------------------------------
     def newton(self, step: int, predictor: np.ndarray) -> tuple[float, float, int]:

@@ -283,12 +283,6 @@ class QuasiStaticRun:
         if rho0 == 0.0:
             return 0.0
         return line_search(self.trial_residual, du0, lhs, lhs_rows, rho0, r0, prob.dot, self.section)
-        log.info("%s: line search cannot reduce the residual; trying to leave a local minimum by raising it about 10%%", self.section)
-        target, closest = 0.1, 1.0e50
-        for alpha, inc in increases:
-            if abs(inc - target) < closest:
-                best_alpha, closest = alpha, abs(inc - target)
-        return best_alpha
 
     def reuse_tangent(self, history: list[float]) -> bool:
         """Keep the last assembled tangent for this Newton iteration? Only once the run has left
