@@ -46,7 +46,6 @@ class TangentTarget:
     probe_length: float | None = None  #: the finite-difference probe of the block being filled (L)
 
 
-
 @njit(cache=True)
 def local_vector_force_kernel(i, offsets, neighbors, volume, T, out):
     """``local_scalar_state_force_kernel`` for vector force states T (nb, 3) of i's bonds: f_i = sum T_b V_j,

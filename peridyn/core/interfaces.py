@@ -43,8 +43,8 @@ from .contact import (  # the plugin API: the contact contract
     ContactRun,
     ContactState,
 )
-
 from .assembly import TangentTarget
+
 from .bonds import NeighborList
 from .discretization import Discretization
 

@@ -64,6 +64,9 @@ class Entry:
         return self._cls
 
 
+_UNDECLARED = object()
+
+
 def _check_contract(kind: str, target: str, cls: Any) -> None:
     """A model class subclasses its kind's contract and declares its ``Params`` (the engine reads
     both without probing)."""
@@ -79,8 +82,10 @@ def _check_contract(kind: str, target: str, cls: Any) -> None:
         raise TypeError(f"{target} is not a subclass of {contract.__module__}.{contract.__name__}")
     if kind == "backend":
         return
-    params = next((vars(k)["Params"] for k in cls.__mro__ if "Params" in vars(k)), ModelParams)
-    if params is ModelParams or not (params is None and kind == "compute" or isinstance(params, type) and issubclass(params, ModelParams)):
+    params = next((vars(k)["Params"] for k in cls.__mro__ if "Params" in vars(k)), _UNDECLARED)
+    keyless = params is None and kind == "compute"
+    model = isinstance(params, type) and issubclass(params, ModelParams) and params is not ModelParams
+    if not (keyless or model):
         raise TypeError(f"{target} declares no Params, a subclass of peridyn.core.params.ModelParams (the model of its deck keys; "
                         "None for a compute without keys)")
 

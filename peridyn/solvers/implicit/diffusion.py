@@ -68,7 +68,6 @@ from pydantic import Field, field_validator, model_validator
 
 from ...core.errors import InputError, InstabilityError
 from ...core.interfaces import Solver
-from ...core.params import ModelParams
 from ..section import SolverSection
 from ..linalg.linear import (
     LU_ORDERING,
