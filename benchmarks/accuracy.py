@@ -23,7 +23,7 @@ from scipy.special import sici
 
 from peridyn.solvers.explicit.verlet import Verlet, VerletSection
 from peridyn.testing import build_simulation, cube_deck
-from peridyn.engine.session import run_sections
+from peridyn.engine.session import run_section, run_sections
 
 K = 1.0e9
 
@@ -68,7 +68,7 @@ def timing() -> None:
         sim.fields["Velocity"][:, 0] = np.sin(np.pi * x[:, 1] / 6.0)
         section = VerletSection.model_validate({"Initial Time": 0.0, "Final Time": 2e-4 * (1 + 1e-12), "Verlet": {"Fixed dt": dt}})
         t0 = time.perf_counter()
-        Verlet(section).run(sim)
+        run_section(sim, Verlet(section))
         return sim.fields["Displacement"].copy(), time.perf_counter() - t0
 
     ref, _ = run(2e-4 / 16384)
@@ -108,7 +108,7 @@ def wave() -> None:
         with tempfile.TemporaryDirectory() as tmp:
             sim = build_simulation(tree, output_dir=tmp)
             t0 = time.perf_counter()
-            Verlet(sim.deck.solvers[0].params).run(sim)
+            run_section(sim, Verlet(sim.deck.solvers[0].params))
             wall = time.perf_counter() - t0
             sim.outputs.close()
             r = read_results(f"{tmp}/wave.h")

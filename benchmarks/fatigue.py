@@ -99,7 +99,7 @@ def main() -> None:
         try:
             run_sections(sim)
         except (LoadStepError, RuntimeError) as exc:  # the plate breaks in two (a singular tangent): the converged steps are kept
-            print(f"stopped at t = {sim.state.time:g}: {exc}")
+            print(f"stopped at t = {sim.clock.time:g}: {exc}")
         sim.outputs.close(complete=True)
         r = read_results(Path(tmp) / "sent.e")
     wall = time.perf_counter() - t0

@@ -33,6 +33,7 @@ def child(deck_path: str, linear_solver: str, out_dir: str) -> dict:
 
     _single_threaded_blas()  # what `peridyn run` sets up (threads per rank under MPI)
     from peridyn.deck.model import load_deck
+    from peridyn.engine.session import run_section
     from peridyn.engine.simulation import Simulation
     from peridyn.parallel.comm import get_comm
 
@@ -40,13 +41,14 @@ def child(deck_path: str, linear_solver: str, out_dir: str) -> dict:
     comm = get_comm()
     sim = Simulation(deck, comm=comm, output_dir=out_dir, progress=False)
     setup = time.perf_counter() - wall0
+    state = None
     try:
         for entry in deck.solvers:
             params = entry.params
             sub = getattr(params, "quasi_static", None)
             if sub is not None and linear_solver != "Belos":
                 params = params.model_copy(update={"quasi_static": sub.model_copy(update={"linear_solver": linear_solver})})
-            entry.cls(params, section=entry.section).run(sim)
+            state = run_section(sim, entry.cls(params, section=entry.section), state)
     finally:
         sim.outputs.close()
     st = next(s for s in sim.stats["solvers"] if s["method"] == "QuasiStatic")

@@ -15,6 +15,7 @@ import logging
 
 from peridyn.core.errors import InstabilityError
 from peridyn.solvers.explicit.verlet import Verlet, VerletSection
+from peridyn.engine.session import run_section
 from peridyn.testing import build_simulation, cube_deck
 
 MATERIALS = {
@@ -32,7 +33,7 @@ def stable(material: dict, factor: float, horizon_factor: float, steps: int = 10
     dt = sim.critical_time_step() * factor
     section = VerletSection.model_validate({"Initial Time": 0.0, "Final Time": steps * dt * (1 + 1e-9), "Verlet": {"Safety Factor": factor}})
     try:
-        Verlet(section).run(sim)
+        run_section(sim, Verlet(section))
     except InstabilityError:
         return False
     return bool(np.all(np.isfinite(sim.fields["Velocity"])))

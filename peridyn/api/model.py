@@ -143,7 +143,7 @@ class Model:
         if not self._started:
             plan = self._solvers()
             return float(plan[0][0].params.initial_time) if plan else 0.0
-        return float(self.sim.state.time)
+        return float(self.sim.clock.time)
 
     @property
     def dt(self) -> float:
@@ -153,7 +153,7 @@ class Model:
         steps are not known before it runs (QuasiStatic, NOXQuasiStatic, ...) is an
         ArgumentError saying so."""
         if self._started:
-            return float(self.sim.state.time_step)
+            return float(self.sim.time_step)
         plan = self._solvers()
         solver = plan[0][0]
         dt = solver.planned_time_step(self.sim)
@@ -346,7 +346,7 @@ class Model:
         for name, (fn, every) in self._computes.items():
             if force or step % every == 0:
                 value = fn(self)
-                self._history[name][0].append(float(self.sim.state.time))
+                self._history[name][0].append(float(self.sim.clock.time))
                 self._history[name][1].append(np.array(value, copy=True) if isinstance(value, np.ndarray) else value)
 
     # -- running -------------------------------------------------------------------------------
@@ -374,7 +374,8 @@ class Model:
                 if isinstance(solver, Verlet):
                     self._started = True
                     # a GPU run's fields come back at every step, so that what a step(n) caller reads is current
-                    self._generator = solver.steps(self.sim, host_each_step=self.sim.device == "gpu")
+                    self.sim.show_clock(self.session.state)
+                    self._generator = solver.steps(self.sim, self.session.state, host_each_step=self.sim.device == "gpu")
                     self._guard(lambda: next(self._generator))  # step 0: forces and output at the initial time
                     self._record(0)
                     continue
@@ -384,7 +385,9 @@ class Model:
                                    f"to t = {final:.6g}; use run() or run(until=t) with t at or after its end (stepping needs "
                                    "an explicit Verlet section)")
                 self._started = True
-                self._guard(lambda: solver.run(self.sim))
+                from ..engine.session import run_section
+
+                self.session.state = self._guard(lambda: run_section(self.sim, solver, self.session.state))
                 self._end_section(solver)
                 self.steps_taken += 1
                 self._record(0, force=True)
@@ -410,7 +413,7 @@ class Model:
         """The section now running has ended: its checkpoint (with a Restart section), the next."""
         restart = self.sim.restart
         if restart is not None:
-            self._guard(lambda: restart.end_section(self._section, solver))
+            self._guard(lambda: restart.end_section(self._section, solver, self.session.state))
         self._section += 1
 
     def _guard(self, action: Callable[[], Any]) -> Any:
@@ -457,7 +460,7 @@ class Model:
             raise ArgumentError(f"until = {until!r} is before the current time {self.time!r}", path=("Model.run", "until"),
                                 fix="give a time at or after model.time, or None to run to the end")
         while not self._ended:
-            if self._started and self.sim.state.time >= until - 1e-9 * max(self.sim.state.time_step, 0.0):
+            if self._started and self.sim.clock.time >= until - 1e-9 * max(self.sim.time_step, 0.0):
                 break
             if not self._advance(until):
                 break

@@ -116,7 +116,7 @@ def label_fragments(sim: Any) -> FragmentState:
         inverse = np.searchsorted(keys, own)
     mass = part[:, 0]
     velocity = part[:, 1:4] / np.where(mass > 0.0, mass, 1.0)[:, None]
-    return FragmentState(float(sim.state.time), inverse + 1, mass, velocity, part[:, 4])
+    return FragmentState(float(sim.clock.time), inverse + 1, mass, velocity, part[:, 4])
 
 
 #: the labelling of each live simulation at its last output time, shared by the fragment computes
@@ -126,7 +126,7 @@ _LABELLED: "weakref.WeakKeyDictionary[Any, FragmentState]" = weakref.WeakKeyDict
 class _FragmentCompute(Compute):
     def state(self, sim: Any) -> FragmentState:
         hit = _LABELLED.get(sim)
-        if hit is None or hit.time != float(sim.state.time):
+        if hit is None or hit.time != float(sim.clock.time):
             hit = _LABELLED[sim] = label_fragments(sim)
         return hit
 

@@ -132,4 +132,4 @@ class NonlinearSolverIterations(Compute):
         return [FieldSpec(self.name, Relation.GLOBAL)]
 
     def compute(self, sim):
-        sim.fields[self.name][0] = float(sim.state.nonlinear_iterations)
+        sim.fields[self.name][0] = float(sim.clock.nonlinear_iterations)

@@ -291,7 +291,7 @@ class ContactManager:
         if self.ghosts is None:  # the host's fields (a GPU run's downloaded first)
             fields = self.sim.fields
             state = ContactState(fields["Coordinates"], fields["Velocity"], fields["Volume"], self.horizon, self.block, self.gid,
-                                 self.num_owned, self.sim.state.time)
+                                 self.num_owned, self.sim.clock.time)
         else:
             state = self.state
         e = self.model.potential_energy(self.pairs, state)

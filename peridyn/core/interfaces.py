@@ -33,7 +33,7 @@ from .services import (
     RunCheckpoints,
 )
 from .solver_section import SolverSection
-from .state import SolverState
+from .state import Clock, SolverState
 from .views import BlockView  # the plugin API: what a model works on
 from .contact import (  # the plugin API: the contact contract
     VISIT_FROM_PARTNER,
@@ -318,7 +318,9 @@ class Simulation(Protocol):
     num_owned: int
     num_local: int
     num_global: int  #: points in the whole model
-    state: SolverState  #: what the solver sections write and hand on: time, step, acceleration, increments, iterations
+    #: the time the fields are at, read-only: the running section's :class:`~peridyn.core.state.SolverState`
+    clock: Clock
+    time_step: float  #: the step the running solver takes (T; ``set_time_step``), which rate-form models read
     gid: np.ndarray  #: (num_local,) int64 0-based global ids
     stats: dict[str, Any]  #: run statistics a solver records for the end-of-run summary
     deck: DeckView  #: the validated deck (peridyn.deck.model.Deck)
@@ -352,20 +354,27 @@ class Simulation(Protocol):
     progress: bool  #: whether solvers show progress
     timers: dict[str, float]  #: wall-time sections (s) for the summary
     backend: Backend  #: where arrays live and bond loops run
-    host: Placement  #: the explicit step's arrays where this simulation holds them (peridyn.core.placement)
     device: str  #: "cpu", or "gpu" for an explicit run on one GPU (``--device``, the solver's ``Device``)
     device_backend: Backend | None  #: the GPU backend of a "gpu" run (set-up stays on ``backend``), else None
     overlap: bool  #: MPI: rows without ghost neighbors computed while halo messages travel
 
     #: the attributes code outside the engine may assign (the conformance kit: ``overlap``); solvers
-    #: write the members of ``state``, every other attribute is the engine's
+    #: write the members of the state they are handed, every other attribute is the engine's
     writable: ClassVar[frozenset[str]] = frozenset({"overlap"})
 
     def evaluate_forces(self) -> np.ndarray:
         """Internal force density (num_owned, 3) at the current positions (M L^-2 T^-2)."""
 
-    def apply_kinematic(self, t: float, t_prev: float) -> None:
-        """Apply prescribed displacements and temperatures for the step t_prev -> t."""
+    def apply_kinematic(self, t: float, t_prev: float, state: SolverState | None = None) -> None:
+        """Apply prescribed displacements and temperatures for the step t_prev -> t; with
+        ``state``, they also fill its increments ``delta_u`` / ``delta_p`` where it has them."""
+
+    def host_placement(self, state: SolverState) -> Placement:
+        """The step's arrays where this simulation holds them (host memory), with the
+        acceleration and increments of ``state``."""
+
+    def show_clock(self, state: SolverState) -> None:
+        """From now on ``clock`` reads ``state`` (the engine calls it as a section starts)."""
 
     def apply_body_forces(self, t: float) -> None:
         """Set the external force density of the body-force conditions at time t."""
@@ -483,8 +492,10 @@ class Solver(ABC):
         self.section = section
 
     @abstractmethod
-    def run(self, sim: "Simulation") -> None:
-        """Advance ``sim`` from the solver's initial to its final time, writing output."""
+    def run(self, sim: "Simulation", state: SolverState) -> SolverState:
+        """Advance ``sim`` from the solver's initial to its final time, writing output; ``state``
+        is what the section before left (a fresh one for the first section, or a checkpoint's),
+        and what it returns is handed to the next section."""
 
     @classmethod
     def explicit_step(cls, params: SolverSection) -> tuple[float | None, float | None] | None:

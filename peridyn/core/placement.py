@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from typing import Any, Protocol, runtime_checkable
 
+from .state import SolverState
 from .traversal import Backend
 
 
@@ -41,11 +42,13 @@ class Placement(Protocol):
     current (NP1) array, ``n(name)`` the previous state, ``name in fields``) with arrays on
     ``backend``. ``acceleration`` (num_local, 3) and the increments ``delta_u`` (num_local, 3) /
     ``delta_p`` (num_local,) that implicit solvers ask conditions to fill (None: not asked) are
-    on the backend too.
+    on the backend too: those of ``state``, the solver state the placement was made from, whose
+    host arrays ``to_host`` makes current.
     """
 
     backend: Backend
     fields: Any
+    state: SolverState
     acceleration: Any
     #: a (0, 3) float array on the backend: "no such vector field" in a law's arguments
     no_vectors: Any

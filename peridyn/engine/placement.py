@@ -7,16 +7,19 @@ from typing import Any
 import numpy as np
 
 from ..core.placement import StepContact
+from ..core.state import SolverState
 from ..core.traversal import Backend
 
 
 class HostPlacement:
     """A :class:`~peridyn.core.placement.Placement` over the simulation's own arrays: nothing is
     copied, forces are the simulation's (MPI halos and overlap included), conditions write
-    its fields."""
+    its fields. The acceleration and increments are those of ``state`` (None: a placement for
+    conditions that write fields only, as body forces do)."""
 
-    def __init__(self, sim: Any) -> None:
+    def __init__(self, sim: Any, state: SolverState | None) -> None:
         self.sim = sim
+        self.state = state if state is not None else SolverState()
         self.no_vectors = np.zeros((0, 3))
 
     @property
@@ -29,19 +32,15 @@ class HostPlacement:
 
     @property
     def acceleration(self) -> np.ndarray | None:
-        return self.sim.state.acceleration
-
-    @acceleration.setter
-    def acceleration(self, value: np.ndarray) -> None:
-        self.sim.state.acceleration = value
+        return self.state.acceleration
 
     @property
     def delta_u(self) -> np.ndarray | None:
-        return self.sim.state.delta_u
+        return self.state.delta_u
 
     @property
     def delta_p(self) -> np.ndarray | None:
-        return self.sim.state.delta_p
+        return self.state.delta_p
 
     @property
     def contact(self) -> StepContact | None:

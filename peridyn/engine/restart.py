@@ -40,6 +40,7 @@ import numpy as np
 
 from ..core.errors import InputError, OutputWriteError, PeridynError
 from ..core.fields import Relation, Temporal
+from ..core.state import SolverState
 from .checkpoint_check import FORMAT, bond_keys as _bond_keys
 
 log = logging.getLogger("peridyn.restart")
@@ -175,11 +176,12 @@ class Checkpoints:
         self._resume = None
         return int(r["step"]), _restore_monitor(self.sim, r["monitor"])
 
-    def after_step(self, step: int, monitor, where=None) -> None:
+    def after_step(self, step: int, monitor, state: SolverState, where=None) -> None:
         """End of Verlet step ``step`` (after the output and the swap of N and NP1): a
-        checkpoint every ``Restart Frequency`` steps, and on a signal (then RunInterrupted).
-        ``where``: the step's :class:`~peridyn.core.placement.Placement`, whose arrays are
-        brought to the host before a checkpoint is written (a GPU run's)."""
+        checkpoint of the model and ``state`` every ``Restart Frequency`` steps, and on a
+        signal (then RunInterrupted). ``where``: the step's
+        :class:`~peridyn.core.placement.Placement`, whose arrays are brought to the host before
+        a checkpoint is written (a GPU run's)."""
         p = self.params
         if p is None or not self.polling:
             return
@@ -189,16 +191,16 @@ class Checkpoints:
             monitor.flush()  # the accumulators of every step so far (MPI batches them)
             if where is not None:
                 where.to_host()
-            self.write(self.section, step, monitor)
+            self.write(self.section, step, state, monitor)
         if signum:
             raise self._interrupted(signum, step)
 
-    def end_section(self, k: int, solver) -> None:
-        """Solver section ``k`` is done: a checkpoint at the next section's start."""
+    def end_section(self, k: int, solver, state: SolverState) -> None:
+        """Solver section ``k`` is done, leaving ``state``: a checkpoint at the next section's start."""
         self.polling = False
         if self.params is None:
             return
-        self.write(k + 1, 0)
+        self.write(k + 1, 0, state)
         signum = int(self.sim.comm.allreduce_max(self._signal)) if self.sim.comm.size > 1 else self._signal
         if signum:
             raise self._interrupted(signum, None)
@@ -207,17 +209,18 @@ class Checkpoints:
         name = signal.Signals(signum).name
         sim = self.sim
         at = f"after step {step} of solver section {self.section + 1}" if step is not None else f"after solver section {self.section + 1}"
-        return RunInterrupted(f"stopped by {name} {at} (t = {sim.state.time:.6g}); checkpoint {self.last_written} written: continue with "
+        return RunInterrupted(f"stopped by {name} {at} (t = {sim.clock.time:.6g}); checkpoint {self.last_written} written: continue with "
                               f"'{continue_command(sim)}'", signum)
 
     # -- writing ---------------------------------------------------------------------------------
-    def write(self, section: int, step: int, monitor=None) -> Path | None:
-        """Write the checkpoint at (``section``, ``step``); collective (rank 0 writes)."""
+    def write(self, section: int, step: int, state: SolverState, monitor=None) -> Path | None:
+        """Write the checkpoint of the model and ``state`` at (``section``, ``step``);
+        collective (rank 0 writes)."""
         sim = self.sim
         self.writing = True
         t0 = time.perf_counter()
         try:
-            meta, arrays = self._collect(section, step, monitor)
+            meta, arrays = self._collect(section, step, state, monitor)
             path = None
             if sim.comm.is_root:
                 path = self.folder / checkpoint_name(self.stem, section, step)
@@ -227,7 +230,7 @@ class Checkpoints:
                     raise OutputWriteError(f"writing the checkpoint {path} failed ({exc.strerror or exc}); the previous "
                                            "checkpoints are left as they were") from None
                 self._prune((section, step))
-                log.info("checkpoint %s (t = %.6g; %.1f MB in %.2f s)", path, sim.state.time, path.stat().st_size / 1e6, time.perf_counter() - t0)
+                log.info("checkpoint %s (t = %.6g; %.1f MB in %.2f s)", path, state.time, path.stat().st_size / 1e6, time.perf_counter() - t0)
             self.last_written = self.folder / checkpoint_name(self.stem, section, step)
             return path
         finally:
@@ -245,7 +248,7 @@ class Checkpoints:
             except OSError:
                 pass
 
-    def _collect(self, section: int, step: int, monitor) -> tuple[dict, dict[str, np.ndarray]]:
+    def _collect(self, section: int, step: int, state: SolverState, monitor) -> tuple[dict, dict[str, np.ndarray]]:
         """Gather the state in global order on rank 0 (collective): (meta, arrays); the arrays
         are empty on the other ranks."""
         sim = self.sim
@@ -291,8 +294,8 @@ class Checkpoints:
                 else:
                     kinds[name] = "point"
                     point(key, arr)
-        if sim.state.acceleration is not None:
-            point("acceleration", sim.state.acceleration)
+        if state.acceleration is not None:
+            point("acceleration", state.acceleration)
         contact = None
         c = sim.contact
         if c is not None:
@@ -312,10 +315,10 @@ class Checkpoints:
             "step": int(step),
             "sections": len(sim.deck.solvers),
             "dt": self.dt if step > 0 else None,
-            "time": sim.state.time,
-            "time_prev": sim.state.time_prev,
-            "time_step": sim.state.time_step,
-            "nonlinear_iterations": int(sim.state.nonlinear_iterations),
+            "time": state.time,
+            "time_prev": state.time_prev,
+            "time_step": sim.time_step,
+            "nonlinear_iterations": int(state.nonlinear_iterations),
             "fields": kinds,
             "two_step": sorted(nm for nm in kinds if store.specs[nm].temporal is Temporal.TWO_STEP),
             "writers": [{"section": w.entry.section, "count": int(w.count), "frames": int(w.frames)} for w in sim.outputs.writers],
@@ -327,9 +330,10 @@ class Checkpoints:
         return meta, arrays
 
     # -- reading ---------------------------------------------------------------------------------
-    def load(self, path: Path) -> None:
-        """Put the checkpoint ``path`` into the freshly set-up model; InputError (one line, the
-        same on every rank) for a checkpoint this run cannot continue, before anything changes."""
+    def load(self, path: Path, state: SolverState) -> None:
+        """Put the checkpoint ``path`` into the freshly set-up model and into ``state`` (the
+        run's solver state, handed to its first section); InputError (one line, the same on
+        every rank) for a checkpoint this run cannot continue, before anything changes."""
         from .checkpoint_check import agree, check_checkpoint, read_checkpoint
 
         def checked() -> tuple[dict, dict, bool]:
@@ -339,7 +343,7 @@ class Checkpoints:
             return meta, arrays, carry
 
         meta, data, carry = agree(self.sim.comm, checked)
-        self._restore(data, meta, carry=carry)
+        self._restore(data, meta, state, carry=carry)
         self.last_written = path
         if carry:
             log.info("starting from the state at the end of %s (t = %.6g), read from %s", Path(meta["deck"]).name, meta["time"], path)
@@ -373,8 +377,8 @@ class Checkpoints:
             raise refusal(path, f"holds fields this model does not declare ({', '.join(missing[:4])})", "restart with the deck that wrote it")
         return carry
 
-    def _restore(self, data, meta: dict, carry: bool = False) -> None:
-        """Put the checkpoint's state into the model. ``carry``: another deck's final state,
+    def _restore(self, data, meta: dict, state: SolverState, carry: bool = False) -> None:
+        """Put the checkpoint into the model and ``state``. ``carry``: another deck's final state,
         whose fields this model shares are taken (its outputs, contact lists and monitor start
         afresh)."""
         sim = self.sim
@@ -408,11 +412,11 @@ class Checkpoints:
                         keys = _bond_index(sim, data["bond_keys"])
                     target[...] = data[key][keys]
         if "acceleration" in data:
-            sim.state.acceleration = np.zeros((sim.num_local, 3))
-            point("acceleration", sim.state.acceleration)
-        sim.state.time, sim.state.time_prev = meta["time"], meta["time_prev"]
+            state.acceleration = np.zeros((sim.num_local, 3))
+            point("acceleration", state.acceleration)
+        state.time, state.time_prev = meta["time"], meta["time_prev"]
         sim.set_time_step(meta["time_step"])
-        sim.state.nonlinear_iterations = meta["nonlinear_iterations"]
+        state.nonlinear_iterations = meta["nonlinear_iterations"]
         if not same:
             sim.exchange_halo_fields()
         c = sim.contact
@@ -427,7 +431,7 @@ class Checkpoints:
                 saved = y.copy()
                 y[:n] = data["contact/y_build"][local[:n]]
                 c.pairs = None
-                c._build(c._current_state(sim.state.time))
+                c._build(c._current_state(state.time))
                 np.copyto(y, saved)
             c.capacity = int(meta["contact"]["capacity"])
             c.stats = dict(meta["contact"]["stats"])
@@ -477,10 +481,10 @@ class Checkpoints:
 
 
 # ------------------------------------------------------------------------------------------------
-def attach(sim, restart_arg: str | None) -> Checkpoints | None:
+def attach(sim, restart_arg: str | None, state: SolverState) -> Checkpoints | None:
     """The checkpoints (the caller sets ``sim.restart``) of a deck with a Restart section or a run given ``--restart``
-    (``restart_arg``: a checkpoint path, or "latest"); load the checkpoint. Collective only
-    through the contact pair rebuild."""
+    (``restart_arg``: a checkpoint path, or "latest"); load the checkpoint into the model and
+    the run's solver state ``state``. Collective only through the contact pair rebuild."""
     params = sim.deck.restart
     if params is None and restart_arg is None:
         return None
@@ -498,7 +502,7 @@ def attach(sim, restart_arg: str | None) -> Checkpoints | None:
             path = found[-1][1]
         else:
             path = Path(restart_arg)
-        cp.load(path)
+        cp.load(path, state)
     return cp
 
 
@@ -591,5 +595,4 @@ def _restore_monitor(sim, state: dict):
     m._rows = []
     m.batch = 1 if sim.comm.size == 1 else 16
     vars(m).update(state)
-    m.place(sim.host)
-    return m
+    return m  # placed by the Verlet loop that continues

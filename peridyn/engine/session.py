@@ -25,7 +25,9 @@ from pathlib import Path
 from typing import TypeVar
 
 from ..core.errors import InputError, InstabilityError
+from ..core.interfaces import Solver
 from ..core.logs import say
+from ..core.state import SolverState
 from ..deck.model import Deck, load_deck
 from ..parallel.comm import SerialComm
 from .output_paths import check_output_names, check_run_paths, lock_outputs, prepare_output_dir, release_locks
@@ -59,16 +61,30 @@ def agree_on_input(comm, action: Callable[[], T]) -> T:
     return result  # type: ignore[return-value]
 
 
-def run_sections(sim: Simulation) -> None:
-    """Run the deck's solver sections in deck order, skipping those a loaded checkpoint has done
-    (``sim.restart``) and writing the end-of-section checkpoints; the caller closes the outputs."""
+def run_sections(sim: Simulation, state: SolverState | None = None) -> SolverState:
+    """Run the deck's solver sections in deck order, each from the solver state the one before
+    it left (the first from ``state``: a checkpoint's, or a fresh one), skipping those a loaded
+    checkpoint has done (``sim.restart``) and writing the end-of-section checkpoints; returns
+    the last section's state. The caller closes the outputs."""
+    state = state if state is not None else SolverState()
     restart = sim.restart
     for k, (solver, _, _) in enumerate(sim.plan_solvers()):
         if restart is not None and not restart.begin_section(k, solver):
             continue  # done before the checkpoint this run continues from
-        solver.run(sim)
+        state = run_section(sim, solver, state)
         if restart is not None:
-            restart.end_section(k, solver)
+            restart.end_section(k, solver, state)
+    return state
+
+
+def run_section(sim: Simulation, solver: Solver, state: SolverState | None = None) -> SolverState:
+    """Run one solver section from ``state`` (None: a fresh one), the simulation's clock reading
+    it; returns the state it leaves."""
+    state = state if state is not None else SolverState()
+    sim.show_clock(state)
+    state = solver.run(sim, state)
+    sim.show_clock(state)
+    return state
 
 
 def keeps_output(exc: BaseException | None, ranks: int) -> bool:
@@ -103,6 +119,8 @@ class RunSession:
         self.option = option
         self.deck: Deck | None = deck if isinstance(deck, Deck) else None
         self.sim: Simulation | None = None
+        #: the solver state handed to the first section (a checkpoint's when the run continues one)
+        self.state = SolverState()
         self._locks: list = []
         self._closed = False
         self._wall0 = _time.perf_counter()
@@ -125,6 +143,7 @@ class RunSession:
             self.sim = sim = agree_on_input(comm, lambda: Simulation(
                 deck, comm=comm, output_dir=self.output_dir, progress=self.progress and rank0, write_files=self.write_files,
                 backend=self.backend, device=self.device))
+            sim.show_clock(self.state)
             if not self.write_files:  # the engine's write_files keeps set-up from writing; the run writes nothing either
                 sim.outputs.writers = []
             else:
@@ -133,7 +152,7 @@ class RunSession:
             if self.write_files and (deck.restart is not None or self.restart_from is not None):
                 from .restart import attach
 
-                sim.restart = agree_on_input(comm, lambda: attach(sim, self.restart_from))
+                sim.restart = agree_on_input(comm, lambda: attach(sim, self.restart_from, self.state))
                 sim.restart.install_signals()
         except BaseException:
             self.close(complete=False)
@@ -146,7 +165,7 @@ class RunSession:
         :func:`keeps_output` says on an error (which propagates)."""
         sim = self.sim if self.sim is not None else self.open()
         try:
-            run_sections(sim)
+            self.state = run_sections(sim, self.state)
         except BaseException as exc:
             self.close(complete=keeps_output(exc, self.comm.size))
             raise

@@ -19,7 +19,8 @@ import numpy as np
 from ..core.errors import InputError, raise_collected
 from ..core.fields import FieldSpec, FieldStore, Length, Relation
 from ..core.interfaces import BlockView
-from ..core.state import SolverState
+from ..core.placement import Placement
+from ..core.state import Clock, SolverState
 from ..core.traversal import Backend
 from ..deck.model import Deck, ModelEntry
 from ..geometry.influence import InfluenceFunction
@@ -68,13 +69,12 @@ class Simulation:
         #: False for ``peridyn check``: set-up creates no file (no Interfaces.e)
         self.write_files = write_files
         self.progress = progress
-        #: what the solver sections write and hand on to the sections after them (time, acceleration, increments)
-        self.state = SolverState()
+        #: the time the fields are at: the running section's solver state (read-only; ``show_clock``)
+        self.clock: Clock = SolverState()
+        self.time_step = 0.0  #: the running solver's step (T), which rate-form models read
         self.bond_force_vector: np.ndarray | None = None  #: (num_bonds, 3) vector force states (non-ordinary materials only)
         self._rho: np.ndarray | None = None
         self.contact = None
-        #: the explicit step's arrays where this simulation holds them (conditions, forces)
-        self.host = HostPlacement(self)
         self.interfaces = None
         self.element_nodes: np.ndarray | None = None
         #: checkpoints and restarts (:class:`peridyn.engine.restart.Checkpoints`; None: neither)
@@ -470,11 +470,20 @@ class Simulation:
 
     def set_time_step(self, dt: float) -> None:
         """The solver's time step (or load-step increment), for rate-form materials (T)."""
-        self.state.time_step = float(dt)
+        self.time_step = float(dt)
         for blk in self.blocks:
-            blk.view.time_step = self.state.time_step
+            blk.view.time_step = self.time_step
             if blk.fused_view is not None:
-                blk.fused_view.time_step = self.state.time_step
+                blk.fused_view.time_step = self.time_step
+
+    def show_clock(self, state: SolverState) -> None:
+        """From now on ``clock`` reads ``state`` (a solver section starts from it)."""
+        self.clock = state
+
+    def host_placement(self, state: SolverState) -> Placement:
+        """The step's arrays where this simulation holds them, with ``state``'s acceleration and
+        increments (nothing is copied; forces are the simulation's, MPI halos included)."""
+        return HostPlacement(self, state)
 
     def prescribe(self, points: np.ndarray, component: int) -> None:
         """Mark displacement ``component`` of the local ``points`` as prescribed (a condition
@@ -526,11 +535,11 @@ class Simulation:
         """Peridigm's evalModel: damage, precompute, force. Returns Force_Density (n, 3)."""
         return evaluate_forces(self)
 
-    def apply_kinematic(self, t: float, t_prev: float) -> None:
-        apply_kinematic(self.host, self.kinematic, t, t_prev)
+    def apply_kinematic(self, t: float, t_prev: float, state: SolverState | None = None) -> None:
+        apply_kinematic(HostPlacement(self, state), self.kinematic, t, t_prev)
 
     def apply_body_forces(self, t: float) -> None:
-        apply_body_forces(self.host, self.force_conditions, t)
+        apply_body_forces(HostPlacement(self, None), self.force_conditions, t)
 
     def load_data(self, t: float) -> None:
         if self.data_loader is not None:

@@ -14,25 +14,28 @@ from typing import Any
 import numpy as np
 
 from ..core.placement import StepContact
+from ..core.state import SolverState
 from ..core.traversal import Backend
 from .state import DeviceModel
 
 
 class DevicePlacement:
-    """A :class:`~peridyn.core.placement.Placement` on the GPU backend ``backend``."""
+    """A :class:`~peridyn.core.placement.Placement` on the GPU backend ``backend``, whose
+    acceleration is a device copy of ``state``'s (made zero where it has none yet)."""
 
     delta_u = None  #: implicit solvers run on the host
     delta_p = None
 
-    def __init__(self, sim: Any, backend: Backend) -> None:
+    def __init__(self, sim: Any, backend: Backend, state: SolverState) -> None:
         self.sim = sim
+        self.state = state
         self.backend = backend
         self.model = DeviceModel(sim, backend)
         self.fields = self.model.fields
         self.no_vectors = backend.zeros((0, 3))
-        if sim.state.acceleration is None:
-            sim.state.acceleration = np.zeros((sim.num_local, 3))
-        self.acceleration = backend.asarray(sim.state.acceleration)
+        if state.acceleration is None:
+            state.acceleration = np.zeros((sim.num_local, 3))
+        self.acceleration = backend.asarray(state.acceleration)
         self._contact = None
         if sim.contact is not None:  # the manager's schedule on the device arrays, the GPU's binning
             from .pair_search import BucketSearch
@@ -80,10 +83,10 @@ class DevicePlacement:
 
     def to_host(self, names: list[str] | None = None) -> None:
         """Copy the device's fields (``names``, default all), the acceleration and the contact
-        state into the simulation's host arrays."""
+        state into the simulation's and the solver state's host arrays."""
         self.fields.download(names)
         if names is None:
-            self.acceleration.copy_to_host(self.sim.state.acceleration)
+            self.acceleration.copy_to_host(self.state.acceleration)
             if self._contact is not None:
                 self._contact.to_host()
 

@@ -164,6 +164,7 @@ class MaterialConformance(MaterialPhysicsChecks):
             require_gpu()
         except Exception as exc:  # noqa: BLE001 - no numba-cuda, no GPU and no simulator
             pytest.skip(f"no GPU and no simulator to run the GPU path on ({exc}); set NUMBA_ENABLE_CUDASIM=1")
+        from ..core.state import SolverState
         from ..gpu.placement import DevicePlacement
         from ..gpu.support import model_problems
 
@@ -173,7 +174,7 @@ class MaterialConformance(MaterialPhysicsChecks):
         assert not problems, f"the GPU step refuses the model: {problems}"
         cpu = self.force(sim)
         backend = CudaBackend()
-        gpu = backend.to_host(DevicePlacement(sim, backend).evaluate_forces())[: sim.num_owned]
+        gpu = backend.to_host(DevicePlacement(sim, backend, SolverState()).evaluate_forces())[: sim.num_owned]
         scale = float(np.abs(cpu).max())
         np.testing.assert_allclose(gpu, cpu[: sim.num_owned], rtol=0.0, atol=(1e-12 if simulated() else 1e-9) * scale)
 

@@ -136,7 +136,7 @@ def newmark_displacement(beta, gamma, steps, final_time=1.0e-3):
     """Displacement of the vibration at ``final_time``."""
     sim = vibration(beta, gamma, steps, final_time)
     run_sections(sim)
-    np.testing.assert_allclose(sim.state.time, final_time, rtol=1e-12)
+    np.testing.assert_allclose(sim.clock.time, final_time, rtol=1e-12)
     return sim.fields["Displacement"].copy()
 
 

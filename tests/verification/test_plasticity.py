@@ -48,6 +48,7 @@ from peridyn.core.errors import InstabilityError
 from peridyn.materials.deviatoric import yield_value
 from peridyn.solvers.explicit.verlet import Verlet, VerletSection
 from peridyn.testing import build_simulation, cube_deck
+from peridyn.engine.session import run_section
 
 H_SPACING = 1.0e-3
 K, MU = 160.0e9, 80.0e9
@@ -215,7 +216,7 @@ def test_explicit_run_at_the_stable_time_step_stays_bounded(material):
         ke0 = sim.kinetic_energy()
         dt = factor * sim.critical_time_step()
         section = VerletSection.model_validate({"Initial Time": 0.0, "Final Time": steps * dt * (1 + 1e-9), "Verlet": {"Safety Factor": factor}})
-        Verlet(section).run(sim)
+        run_section(sim, Verlet(section))
         return sim, ke0
 
     sim, ke0 = run(1.0, 400)

@@ -8,6 +8,7 @@ import pytest
 from peridyn.core.errors import InstabilityError
 from peridyn.solvers.explicit.verlet import Verlet, VerletSection
 from peridyn.testing import build_simulation, cube_deck
+from peridyn.engine.session import run_section
 
 ELASTIC = {"Material Model": "Elastic", "Density": 7800.0, "Bulk Modulus": 130.0e9, "Shear Modulus": 78.0e9}
 
@@ -17,7 +18,7 @@ def verlet(sim, final_time=None, steps=None, **method):
         dt = sim.critical_time_step() * method.get("Safety Factor", 1.0) if "Fixed dt" not in method else method["Fixed dt"] * method.get("Safety Factor", 1.0)
         final_time = steps * dt * (1 + 1e-9)
     section = VerletSection.model_validate({"Initial Time": 0.0, "Final Time": final_time, "Verlet": method})
-    Verlet(section).run(sim)
+    run_section(sim, Verlet(section))
     return sim.stats["solvers"][-1]
 
 
@@ -178,7 +179,7 @@ def test_point_without_neighbors_moves_freely(tmp_path, caplog):
     assert any("no neighbors" in r.getMessage() for r in caplog.records)
     stats = verlet(sim, steps=100, **{"Safety Factor": 0.7})
     lonely = np.nonzero(sim.gid == 4)[0][0]
-    np.testing.assert_allclose(sim.fields["Displacement"][lonely], [0.0, 2.0 * sim.state.time, 0.0], rtol=1e-12)
+    np.testing.assert_allclose(sim.fields["Displacement"][lonely], [0.0, 2.0 * sim.clock.time, 0.0], rtol=1e-12)
     assert np.all(sim.fields["Force_Density"][lonely] == 0.0)
 
 

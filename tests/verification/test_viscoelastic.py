@@ -37,6 +37,7 @@ import pytest
 from peridyn.core.errors import InstabilityError
 from peridyn.solvers.explicit.verlet import Verlet, VerletSection
 from peridyn.testing import build_simulation, cube_deck
+from peridyn.engine.session import run_section
 
 SPACING = 1.0e-3
 K, MU, LAMBDA_I, TAU = 160.0e9, 80.0e9, 0.7, 1.0e-3
@@ -137,7 +138,7 @@ def test_explicit_run_at_the_stable_time_step_stays_bounded():
         ke0 = sim.kinetic_energy()
         dt = factor * sim.critical_time_step()
         section = VerletSection.model_validate({"Initial Time": 0.0, "Final Time": steps * dt * (1 + 1e-9), "Verlet": {"Safety Factor": factor}})
-        Verlet(section).run(sim)
+        run_section(sim, Verlet(section))
         return sim, ke0, dt
 
     sim, ke0, dt = run(1.0, 400)

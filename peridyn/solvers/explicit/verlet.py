@@ -18,6 +18,7 @@ from ...core.errors import InputError, InstabilityError
 from ...core.interfaces import Solver
 from ...core.params import ModelParams
 from ...core.placement import Placement
+from ...core.state import SolverState
 from ...kernels.scatter import apply_body_forces, apply_kinematic
 from ..monitors.energy import EnergyMonitor, judge_energy
 from ..section import SolverSection, count_steps
@@ -143,25 +144,28 @@ class Verlet(Solver):
         return count_steps(self.params.initial_time, self.params.final_time, dt, source=source, file=sim.deck.file,
                            path=(self.section, "Verlet"), hint=sim.unit_slip_hint)
 
-    def run(self, sim) -> None:
-        for _ in self.steps(sim):
+    def run(self, sim, state: SolverState) -> SolverState:
+        for _ in self.steps(sim, state):
             pass
+        return state
 
-    def placement(self, sim) -> Placement:
+    def placement(self, sim, state: SolverState) -> Placement:
         """Where this run's step arrays live: the simulation's own (the CPU) or copies on the GPU
-        backend (made from the host state now: after set-up, or after a checkpoint was loaded)."""
+        backend (made from the host state now: after set-up, or after a checkpoint was loaded),
+        with ``state``'s acceleration."""
         if sim.device != "gpu":
-            return sim.host
+            return sim.host_placement(state)
         from ...gpu.placement import DevicePlacement
 
-        return DevicePlacement(sim, sim.device_backend)
+        return DevicePlacement(sim, sim.device_backend, state)
 
-    def steps(self, sim, *, host_each_step: bool = False):
-        """The run as a generator, on every target: yields the step number after step 0 (the
-        initial force evaluation and output at t_initial) and after each time step; the run's
-        statistics and energy verdict follow the last one. ``run`` consumes it whole;
-        ``peridyn.api.Model`` advances it step by step (the same operations in the same order),
-        with ``host_each_step`` (a GPU run's fields copied to the host at every yield)."""
+    def steps(self, sim, state: SolverState, *, host_each_step: bool = False):
+        """The run from ``state`` as a generator, on every target: yields the step number after
+        step 0 (the initial force evaluation and output at t_initial) and after each time step;
+        the run's statistics and energy verdict follow the last one; ``state`` is left at the
+        last step. ``run`` consumes it whole; ``peridyn.api.Model`` advances it step by step
+        (the same operations in the same order), with ``host_each_step`` (a GPU run's fields
+        copied to the host at every yield)."""
         s = self.params
         instability = InstabilityError  # bound here: a generator left open is closed at exit, after module globals are gone
         dt, dt_crit = self.time_step(sim)
@@ -172,14 +176,14 @@ class Verlet(Solver):
         on = "" if sim.device != "gpu" else " on the GPU"
         log.info("%s: Verlet%s, dt = %.6g (critical estimate %.6g), %d steps from t = %.6g to %.6g", self.section, on, dt, dt_crit,
                  nsteps, t0, t0 + nsteps * dt)
-        if sim.state.acceleration is None:
-            sim.state.acceleration = np.zeros((n, 3))
+        if state.acceleration is None:
+            state.acceleration = np.zeros((n, 3))
         sim.set_time_step(dt)
         restart = sim.restart
         # a run continued from a checkpoint: (the last step done, the energy monitor) there
         resumed = restart.resume(self, dt) if restart is not None else None
         setup0 = _time.perf_counter()
-        where = self.placed = self.placement(sim)
+        where = self.placed = self.placement(sim, state)
         f = where.fields
         x, y, u, v = f["Model_Coordinates"], f["Coordinates"], f["Displacement"], f["Velocity"]
         has_b = "External_Force_Density" in f
@@ -189,7 +193,7 @@ class Verlet(Solver):
         contact = where.contact
         if resumed is None:
             # step 0
-            sim.state.time_prev = sim.state.time = t = t0
+            state.time_prev = state.time = t = t0
             where.load_data(t)
             where.evaluate_forces()
             if contact is not None:
@@ -226,7 +230,7 @@ class Verlet(Solver):
             for step in range(first, nsteps + 1):
                 t_prev = t
                 t = t0 + float(step) * dt
-                sim.state.time_prev, sim.state.time = t_prev, t
+                state.time_prev, state.time = t_prev, t
                 sim.begin_step(t)
                 if contact is not None:
                     contact.begin_step(step)
@@ -255,7 +259,7 @@ class Verlet(Solver):
                 where.advance()
                 progress.update(step)
                 if restart is not None:
-                    restart.after_step(step, monitor, where)  # a checkpoint when due or signalled
+                    restart.after_step(step, monitor, state, where)  # a checkpoint when due or signalled
                 yield step
         except instability:
             where.to_host()  # the diagnosis and the last frame read the host's arrays

@@ -29,6 +29,7 @@ import time as _time
 import numpy as np
 
 from ...kernels.gathers import gather_bond_scalar_kernel
+from ...core.state import SolverState
 from ...core.errors import InputError, InstabilityError
 from ..linalg.coupled_tangent import CoupledTangent
 from ..linalg.linear import LinearSolver, norm_inf, seq_dot, seq_norm2
@@ -55,8 +56,9 @@ class CoupledProblem:
     """Residual r = [(f + b) V, flow V] (row order, 4 per point, prescribed dofs zeroed), its
     norms, the reactions and the 4x4-block tangent."""
 
-    def __init__(self, sim) -> None:
+    def __init__(self, sim, state: SolverState | None = None) -> None:
         self.sim = sim
+        self.state = state if state is not None else SolverState()  #: the section's (None: a fresh one)
         self.comm = sim.comm if sim.comm.size > 1 else None
         n = sim.num_owned
         self.n = n
@@ -150,18 +152,19 @@ class CoupledProblem:
 class CoupledQuasiStaticRun:
     """One coupled QuasiStatic solver run (see module docstring)."""
 
-    def __init__(self, solver, sim) -> None:
+    def __init__(self, solver, sim, state: SolverState) -> None:
         from .load_steps import DAMPED_TANGENT_INTERVAL, PURE_NEWTON_STEPS
 
         self.pure_newton_steps = PURE_NEWTON_STEPS
         self.damped_interval = DAMPED_TANGENT_INTERVAL
         self.solver = solver
         self.sim = sim
+        self.state = state
         self.p = solver.params
         self.q = solver.params.quasi_static
         self.section = solver.section
         self.check_deck()
-        self.problem = CoupledProblem(sim)
+        self.problem = CoupledProblem(sim, state)
         n = sim.num_owned
         self.n = n
         f = sim.fields
@@ -258,7 +261,7 @@ class CoupledQuasiStaticRun:
 
     # -- one load step --------------------------------------------------------------------------
     def newton(self, step: int, predictor: np.ndarray) -> tuple[float, float, int]:
-        sim, prob, q = self.sim, self.problem, self.q
+        prob, q = self.problem, self.q
         self.step = step
         self.failure = None
         T = prob.tangent
@@ -270,7 +273,7 @@ class CoupledQuasiStaticRun:
         self.residuals.append(history)
         n = self.n
         while res > tol and it <= q.maximum_solver_iterations:
-            sim.state.nonlinear_iterations += 1
+            self.state.nonlinear_iterations += 1
             log.debug("%s: load step %d, iteration %d: residual %.6g (tolerance %.6g)", self.section, step, it, res, tol)
             if it == 1 and step > 1 and self.heuristics:
                 lhs = predictor * self.dt
@@ -337,11 +340,11 @@ class CoupledQuasiStaticRun:
         self.v[:] = 0.0
         self.pV[:] = 0.0
         t_cur = t_prev = times[0]
-        sim.state.time_prev = sim.state.time = t_cur
-        saved = sim.state.delta_u, sim.state.delta_p
-        sim.state.delta_u, sim.state.delta_p = self.du, self.dp
+        self.state.time_prev = self.state.time = t_cur
+        saved = self.state.delta_u, self.state.delta_p
+        self.state.delta_u, self.state.delta_p = self.du, self.dp
         try:
-            sim.apply_kinematic(t_cur, t_prev)
+            sim.apply_kinematic(t_cur, t_prev, self.state)
             sim.apply_body_forces(t_cur)
             sim.write_output(t_cur)
             log.info("%s: QuasiStatic with fluid pressure, %d load steps from t = %.6g to %.6g, %d unknowns, tangent %d nonzeros",
@@ -360,10 +363,10 @@ class CoupledQuasiStaticRun:
                 t_cur = times[step]
                 self.dt = t_cur - t_prev
                 sim.set_time_step(self.dt)
-                sim.state.time_prev, sim.state.time = t_prev, t_cur
+                self.state.time_prev, self.state.time = t_prev, t_cur
                 self.du[:] = 0.0
                 self.dp[:] = 0.0
-                sim.apply_kinematic(t_cur, t_prev)
+                sim.apply_kinematic(t_cur, t_prev, self.state)
                 sim.apply_body_forces(t_cur)
                 self.set_trial(self.du, self.dp)
                 res, tol, it = self.newton(step, predictor)
@@ -402,7 +405,7 @@ class CoupledQuasiStaticRun:
                 completed += 1
                 step += 1
         finally:
-            sim.state.delta_u, sim.state.delta_p = saved
+            self.state.delta_u, self.state.delta_p = saved
         lin = self.linear
         solver_stats(
             sim, self.section, "QuasiStatic", completed, _time.perf_counter() - wall0, self.problem,

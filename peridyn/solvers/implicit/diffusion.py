@@ -66,6 +66,7 @@ import numpy as np
 from numba import njit, prange
 from pydantic import Field, field_validator, model_validator
 
+from ...core.state import SolverState
 from ...core.errors import InputError, InstabilityError
 from ...core.interfaces import Solver
 from ..section import SolverSection
@@ -418,16 +419,18 @@ class ImplicitDiffusion(Solver):
     def planned_steps(self, sim) -> int | None:
         return planned_load_steps(self.params, self.params.implicit_diffusion)
 
-    def run(self, sim) -> None:
+    def run(self, sim, state: SolverState) -> SolverState:
         with threads_for(sim):
-            ImplicitDiffusionRun(self, sim).run()
+            ImplicitDiffusionRun(self, sim, state).run()
+        return state
 
 
 class ImplicitDiffusionRun:
     """State of one ImplicitDiffusion solver run."""
 
-    def __init__(self, solver: ImplicitDiffusion, sim) -> None:
+    def __init__(self, solver: ImplicitDiffusion, sim, state: SolverState) -> None:
         self.sim = sim
+        self.state = state
         self.section = solver.section
         self.p = solver.params
         self.q = solver.params.implicit_diffusion
@@ -493,8 +496,8 @@ class ImplicitDiffusionRun:
         wall0 = _time.perf_counter()
         times = load_times(self.p, q, path=(self.section, "ImplicitDiffusion"), file=sim.deck.file)
         t_cur = t_prev = times[0]
-        sim.state.time_prev = sim.state.time = t_cur
-        sim.apply_kinematic(t_cur, t_prev)
+        self.state.time_prev = self.state.time = t_cur
+        sim.apply_kinematic(t_cur, t_prev, self.state)
         sim.apply_body_forces(t_cur)
         for c in sim.conditions:  # Peridigm applies the initial conditions again, after the BCs
             if c.stage == "initial":
@@ -506,9 +509,9 @@ class ImplicitDiffusionRun:
         for step in range(1, len(times)):
             t_prev = t_cur
             t_cur = times[step]
-            sim.state.time_prev, sim.state.time = t_prev, t_cur
+            self.state.time_prev, self.state.time = t_prev, t_cur
             sim.set_time_step(t_cur - t_prev)
-            sim.apply_kinematic(t_cur, t_prev)
+            sim.apply_kinematic(t_cur, t_prev, self.state)
             sim.apply_body_forces(t_cur)
             res, r = self.residual()
             if q.absolute_tolerance is not None:
@@ -518,7 +521,7 @@ class ImplicitDiffusionRun:
             it = 1
             failure = ""
             while res > tol and it <= q.maximum_solver_iterations:
-                sim.state.nonlinear_iterations += 1
+                self.state.nonlinear_iterations += 1
                 log.debug("%s: load step %d, iteration %d: residual %.6g (tolerance %.6g)", self.section, step, it, res, tol)
                 A = self.matrix
                 A.assemble(sim)
@@ -566,7 +569,7 @@ class ImplicitDiffusionRun:
             "tangent_nonzeros": self.matrix.nnz,
             "tangent_assemblies": self.matrix.assemblies,
             "tangent_assembly_time": self.matrix.assembly_time,
-            "nonlinear_iterations": sim.state.nonlinear_iterations,
+            "nonlinear_iterations": self.state.nonlinear_iterations,
             "linear_solver": lin.chosen,
             "linear_iterations": lin.iterations,
             "linear_solves": lin.solves,

@@ -35,6 +35,7 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from ...core.interfaces import Solver
+from ...core.state import SolverState
 from ...core.params import ModelParams
 from ..section import SolverSection, count_steps
 from ..linalg.linear import METHODS, LinearSolver
@@ -90,23 +91,24 @@ class Implicit(Solver):
         return count_steps(p.initial_time, p.final_time, p.implicit.fixed_dt, source="'Fixed dt'", file=sim.deck.file,
                            path=(self.section, "Implicit"))
 
-    def run(self, sim) -> None:
+    def run(self, sim, state: SolverState) -> SolverState:
         with threads_for(sim):
-            self._run(sim)
+            self._run(sim, state)
+        return state
 
-    def _run(self, sim) -> None:
+    def _run(self, sim, state: SolverState) -> None:
         p = self.params
         ip = p.implicit
         wall0 = _time.perf_counter()
-        prob = ImplicitProblem(sim, "full", section=self.section)
+        prob = ImplicitProblem(sim, state, "full", section=self.section)
         T = prob.tangent
         n = sim.num_owned
         f = sim.fields
         x, u, y, v = f["Model_Coordinates"], f["Displacement"], f["Coordinates"], f["Velocity"]
         rho = sim.density_per_point()[:n]
-        a = sim.state.acceleration
+        a = state.acceleration
         if a is None:
-            a = sim.state.acceleration = np.zeros((sim.num_local, 3))
+            a = state.acceleration = np.zeros((sim.num_local, 3))
         dt = ip.fixed_dt
         beta, gamma = ip.beta, ip.gamma
         dt2 = dt * dt
@@ -128,8 +130,8 @@ class Implicit(Solver):
         jscale = ((-beta) * dt) * dt
 
         t_cur = t_prev = t0
-        sim.state.time_prev = sim.state.time = t_cur
-        sim.apply_kinematic(t_cur, t_prev)
+        state.time_prev = state.time = t_cur
+        sim.apply_kinematic(t_cur, t_prev, state)
         sim.apply_body_forces(t_cur)
         sim.write_output(t_cur)
         log.info("%s: Implicit (Newmark beta = %g, gamma = %g), dt = %.6g, %d steps, %d unknowns", self.section, beta, gamma, dt, nsteps, 3 * sim.num_global)
@@ -161,7 +163,7 @@ class Implicit(Solver):
             res, r = residual()
             it = 0
             while res > ip.absolute_tolerance and it <= ip.maximum_solver_iterations:
-                sim.state.nonlinear_iterations += 1
+                state.nonlinear_iterations += 1
                 log.debug("%s: step %d, iteration %d: residual %.6g", self.section, step + 1, it, res)
                 progress.note(iteration=it, residual=res, tolerance=ip.absolute_tolerance)
                 prob.assemble_tangent(p.probe_length)
@@ -183,7 +185,7 @@ class Implicit(Solver):
                 log.warning("%s: step %d (t = %.6g) ended with residual %.4g above the tolerance %.4g", self.section, step + 1, t0 + (step + 1) * dt, res, ip.absolute_tolerance)
             t_prev = t_cur
             t_cur = t0 + (step + 1) * dt
-            sim.state.time_prev, sim.state.time = t_prev, t_cur
+            state.time_prev, state.time = t_prev, t_cur
             sim.write_output(t_cur)
             sim.advance()
             log.debug("%s: step %d of %d (t = %.6g): residual %.4g (tolerance %.4g) after %d iteration(s)", self.section, step + 1, nsteps,

@@ -51,6 +51,7 @@ import time as _time
 
 import numpy as np
 
+from ...core.state import SolverState
 from ...core.errors import ExitCode, PeridynError
 from ...core.interfaces import Solver
 from ..linalg.aztecoo import aztecoo_gmres
@@ -102,7 +103,7 @@ class NOXQuasiStatic(Solver):
             return "default"
         return "block diagonal" if params.block_tangent else "full"
 
-    def run(self, sim) -> None:
+    def run(self, sim, state: SolverState) -> SolverState:
         p = self.params
         if p.peridigm_preconditioner is None and p.nox.direction.method == "Newton" and p.linear_params.jacobian_operator == "Matrix-Free":
             log.warning(
@@ -112,7 +113,8 @@ class NOXQuasiStatic(Solver):
                 self.section,
             )
         with threads_for(sim):
-            NOXRun(self, sim).run()
+            NOXRun(self, sim, state).run()
+        return state
 
 
 class NOXRun:
@@ -120,14 +122,15 @@ class NOXRun:
 
     LAMBDA = 1.0e-6  # NOX::Epetra::MatrixFree perturbation parameter
 
-    def __init__(self, solver: NOXQuasiStatic, sim) -> None:
+    def __init__(self, solver: NOXQuasiStatic, sim, state: SolverState) -> None:
         self.solver = solver
         self.sim = sim
+        self.state = state
         self.p = solver.params
         self.q = solver.params.nox
         self.section = solver.section
         kind = "block diagonal" if self.p.block_tangent else "full"
-        self.problem = ImplicitProblem(sim, kind, section=solver.section)
+        self.problem = ImplicitProblem(sim, state, kind, section=solver.section)
         self.n = sim.num_owned
         f = sim.fields
         self.x, self.u, self.y, self.v = f["Model_Coordinates"], f["Displacement"], f["Coordinates"], f["Velocity"]
@@ -433,17 +436,17 @@ class NOXRun:
         try:
             while status == "unconverged":
                 # one NOX solver->step() per pass, counted as Peridigm counts it
-                self.sim.state.nonlinear_iterations += 1
+                self.state.nonlinear_iterations += 1
                 status = solver.step()
                 log.debug("%s: load step %d, NOX step %d: ||F|| = %.6g (tolerance %.6g)", self.section, step_index, solver.niter,
                           float(self._norm(solver.F)), tol)
         except TrustRegionError as e:
-            raise NOXConvergenceError(f"{self.section}: load step {step_index} (t = {self.sim.state.time:.6g}): NOX trust region: {e}") from None
+            raise NOXConvergenceError(f"{self.section}: load step {step_index} (t = {self.state.time:.6g}): NOX trust region: {e}") from None
         c = solver.counters
         self.trust_region_counters = [a + b for a, b in zip(self.trust_region_counters, (c.newton_steps, c.cauchy_steps, c.dogleg_steps, c.inner_iterations, c.recovery_steps))]
         if status != "converged":
             raise NOXConvergenceError(
-                f"{self.section}: load step {step_index} (t = {self.sim.state.time:.6g}) did not converge in {q.max_solver_iterations} NOX steps "
+                f"{self.section}: load step {step_index} (t = {self.state.time:.6g}) did not converge in {q.max_solver_iterations} NOX steps "
                 f"(||F|| = {float(self._norm(solver.F)):.4g}, tolerance {tol:.4g}); Peridigm aborts here too"
             )
         self.set_state(solver.s)  # y and v as at the last residual evaluation
@@ -467,7 +470,7 @@ class NOXRun:
         while True:
             # one NOX solver->step(): Peridigm counts every call; the first one also checks the
             # initial guess and returns at once when it already converged
-            self.sim.state.nonlinear_iterations += 1
+            self.state.nonlinear_iterations += 1
             if status != "unconverged":
                 break
             nF = float(self._norm(F))
@@ -488,7 +491,7 @@ class NOXRun:
                 break
         if status != "converged":
             raise NOXConvergenceError(
-                f"{self.section}: load step {step_index} (t = {self.sim.state.time:.6g}) did not converge in {q.max_solver_iterations} NOX steps "
+                f"{self.section}: load step {step_index} (t = {self.state.time:.6g}) did not converge in {q.max_solver_iterations} NOX steps "
                 f"(||F|| = {float(self._norm(F)):.4g}, tolerance {tol:.4g}); Peridigm aborts here too"
             )
         self.set_state(s)  # y and v as at the last residual evaluation
@@ -509,7 +512,7 @@ class NOXRun:
 
     # -- the solver -----------------------------------------------------------------------------
     def run(self) -> None:
-        sim, p, q = self.sim, self.p, self.q
+        sim, p, q, state = self.sim, self.p, self.q, self.state
         prob = self.problem
         wall0 = _time.perf_counter()
         times = load_times(p, q, path=(self.section, "NOXQuasiStatic"), file=sim.deck.file)
@@ -517,8 +520,8 @@ class NOXRun:
         if not p.initialize_predictor:
             self.v[:] = 0.0
         t_cur = t_prev = times[0]
-        sim.state.time_prev = sim.state.time = t_cur
-        sim.apply_kinematic(t_cur, t_prev)
+        state.time_prev = state.time = t_cur
+        sim.apply_kinematic(t_cur, t_prev, state)
         sim.apply_body_forces(t_cur)
         sim.write_output(t_cur)
         log.info(
@@ -526,8 +529,8 @@ class NOXRun:
             self.section, q.direction.method, ", Jacobian-free" if p.matrix_free else "", len(times) - 1, times[0], times[-1], 3 * sim.num_global,
         )
         du = np.zeros((sim.num_local, 3))
-        saved = sim.state.delta_u
-        sim.state.delta_u = du
+        saved = state.delta_u
+        state.delta_u = du
         steps = 0
         self.progress = Progress(len(times) - 1, self.section, enabled=sim.progress, unit="load step")
         try:
@@ -535,12 +538,12 @@ class NOXRun:
                 t_prev, t_cur = t_cur, times[k]
                 self.dt = t_cur - t_prev
                 sim.set_time_step(self.dt)  # rate-form materials integrate over the load step
-                sim.state.time_prev, sim.state.time = t_prev, t_cur
+                state.time_prev, state.time = t_prev, t_cur
                 du[:] = 0.0
                 guess = self.v[:n] * self.dt
                 guess[prob.fixed_local] = 0.0
                 self.v[:] = 0.0
-                sim.apply_kinematic(t_cur, t_prev)
+                sim.apply_kinematic(t_cur, t_prev, state)
                 self.u[:n] += du[:n]
                 self.v_bc = self.v[:n].copy()
                 sim.apply_body_forces(t_cur)
@@ -567,7 +570,7 @@ class NOXRun:
                 self.progress.update(k, residual=nF, tolerance=tol)
         finally:
             self.progress.close()
-            sim.state.delta_u = saved
+            state.delta_u = saved
             extra = {}
             if q.nonlinear_solver == "Inexact Trust Region Based":
                 extra["trust_region"] = dict(zip(("newton_steps", "cauchy_steps", "dogleg_steps", "inner_iterations", "recovery_steps"), self.trust_region_counters))

@@ -22,6 +22,7 @@ import numpy as np
 
 from pydantic import Field
 
+from ...core.state import SolverState
 from ...core.errors import InputError
 from ...core.params import ModelParams
 from ...core.solver_section import SolverSection
@@ -93,12 +94,14 @@ class ImplicitProblem:
     """The equilibrium problem of a model: residual r = (f + b) V (force units, zero on
     prescribed dofs), its norms, the reactions and the tangent, all in row order."""
 
-    def __init__(self, sim, tangent_kind: str = "full", *, section: str = "Solver") -> None:
+    def __init__(self, sim, state: SolverState | None = None, tangent_kind: str = "full", *, section: str = "Solver") -> None:
         self.sim = sim
+        #: the solver state of the section (its shared tangents, iteration count); None: a fresh one
+        self.state = state = state if state is not None else SolverState()
         self.comm = sim.comm if sim.comm.size > 1 else None  # None: the serial arithmetic
         n = sim.num_owned
         self.n = n
-        cache = sim.state.solver_cache.setdefault("implicit tangents", {})
+        cache = state.solver_cache.setdefault("implicit tangents", {})
         if tangent_kind not in cache:
             cache[tangent_kind] = TangentMatrix(sim, tangent_kind)
         self.tangent: TangentMatrix = cache[tangent_kind]
@@ -210,7 +213,7 @@ def solver_stats(sim, section: str, method: str, steps: int, wall: float, proble
         "tangent_assemblies": T.assemblies,
         "tangent_assembly_time": T.assembly_time,
         "tangent_allocation_time": T.allocation_time,
-        "nonlinear_iterations": sim.state.nonlinear_iterations,
+        "nonlinear_iterations": problem.state.nonlinear_iterations,
     }
     st.update(extra)
     sim.stats.setdefault("solvers", []).append(st)

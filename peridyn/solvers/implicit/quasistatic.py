@@ -42,6 +42,7 @@ from typing import Literal
 import numpy as np
 from pydantic import Field, field_validator, model_validator
 
+from ...core.state import SolverState
 from ...core.errors import InputError, InstabilityError
 from ...core.interfaces import Solver
 from ...core.params import ModelParams
@@ -177,12 +178,12 @@ class QuasiStatic(Solver):
     def reduction_path(self) -> tuple[str, ...]:
         return (self.section, "QuasiStatic", "Model Reduction")
 
-    def run(self, sim) -> None:
+    def run(self, sim, state: SolverState) -> SolverState:
         with threads_for(sim):
             if sim.deck.multiphysics:  # 4 dofs per point (PERIDIGM_MODELS.md §7)
                 from .coupled import CoupledQuasiStaticRun
 
-                CoupledQuasiStaticRun(self, sim).run()
+                CoupledQuasiStaticRun(self, sim, state).run()
             else:
                 if self.params.solve_for_pressure or not self.params.solve_for_displacement:
                     from ...core.errors import InputError
@@ -191,7 +192,8 @@ class QuasiStatic(Solver):
                         "QuasiStatic solves for the displacement; the fluid pressure is an unknown only in a Multiphysics deck",
                         file=sim.deck.file, path=(self.section,), fix="set 'Multiphysics: 1' at the top level (and use Multiphysics materials), or remove the Solve For keys",
                     )
-                QuasiStaticRun(self, sim).run()
+                QuasiStaticRun(self, sim, state).run()
+        return state
 
 
 def fallback_verlet(solver: QuasiStatic, sim, t_start: float, t_final: float):
@@ -215,13 +217,14 @@ def fallback_verlet(solver: QuasiStatic, sim, t_start: float, t_final: float):
 class QuasiStaticRun:
     """State of one QuasiStatic solver run."""
 
-    def __init__(self, solver: QuasiStatic, sim) -> None:
+    def __init__(self, solver: QuasiStatic, sim, state: SolverState) -> None:
         self.solver = solver
         self.sim = sim
+        self.state = state
         self.p = solver.params
         self.q = solver.params.quasi_static
         self.section = solver.section
-        self.problem = ImplicitProblem(sim, "full", section=solver.section)
+        self.problem = ImplicitProblem(sim, state, "full", section=solver.section)
         n = sim.num_owned
         self.n = n
         f = sim.fields
@@ -278,7 +281,7 @@ class QuasiStaticRun:
         rho0, r0 = prob.qs_residual()
         if not math.isfinite(rho0):
             raise InstabilityError(
-                f"{self.section}: load step {self.step} (t = {self.sim.state.time:.6g}): the residual is not finite; the load step is too large or the model is unstable"
+                f"{self.section}: load step {self.step} (t = {self.state.time:.6g}): the residual is not finite; the load step is too large or the model is unstable"
             )
         if rho0 == 0.0:
             return 0.0
@@ -299,7 +302,7 @@ class QuasiStaticRun:
         """Newton iterations of one load step from the current du; returns (residual norm,
         tolerance, iterations + 1). ``self.failure`` says why the loop stopped early (a linear
         solve failed: Peridigm's residual 1e50, a step that is never accepted), else None."""
-        sim, prob, q = self.sim, self.problem, self.q
+        prob, q = self.problem, self.q
         self.step = step
         self.failure = None
         T = prob.tangent
@@ -313,7 +316,7 @@ class QuasiStaticRun:
         history = [res]
         self.residuals.append(history)
         while res > tol and it <= q.maximum_solver_iterations:
-            sim.state.nonlinear_iterations += 1
+            self.state.nonlinear_iterations += 1
             log.debug("%s: load step %d, iteration %d: residual %.6g (tolerance %.6g)", self.section, step, it, res, tol)
             self.progress.note(iteration=it, residual=res, tolerance=tol)
             if it == 1 and (step > 1 or use_predictor_first) and self.heuristics:
@@ -367,8 +370,8 @@ class QuasiStaticRun:
         predictor = self.v[:n].copy() if p.initialize_predictor else np.zeros((n, 3))
         self.v[:] = 0.0
         t_cur = t_prev = times[0]
-        sim.state.time_prev = sim.state.time = t_cur
-        sim.apply_kinematic(t_cur, t_prev)
+        self.state.time_prev = self.state.time = t_cur
+        sim.apply_kinematic(t_cur, t_prev, self.state)
         sim.apply_body_forces(t_cur)
         sim.write_output(t_cur)
         nnz = sim.comm.allreduce_sum(int(self.problem.tangent.nnz))  # stored by all ranks (ghost rows included)
@@ -384,8 +387,8 @@ class QuasiStaticRun:
         retry = False
         failed_qs = False
         completed = 0
-        saved_delta_u = sim.state.delta_u
-        sim.state.delta_u = self.du
+        saved_delta_u = self.state.delta_u
+        self.state.delta_u = self.du
         try:
             step = 1
             while step < len(times):
@@ -395,9 +398,9 @@ class QuasiStaticRun:
                 t_cur = times[step]
                 self.dt = t_cur - t_prev
                 sim.set_time_step(self.dt)  # rate-form materials integrate over the load step
-                sim.state.time_prev, sim.state.time = t_prev, t_cur
+                self.state.time_prev, self.state.time = t_prev, t_cur
                 self.du[:] = 0.0
-                sim.apply_kinematic(t_cur, t_prev)
+                sim.apply_kinematic(t_cur, t_prev, self.state)
                 sim.apply_body_forces(t_cur)
                 self.set_trial(self.du)
                 res, tol, it = self.newton(step, predictor, p.initialize_predictor)
@@ -451,7 +454,7 @@ class QuasiStaticRun:
                 self.progress.update(step, residual=res, tolerance=tol)
                 step += 1
         finally:
-            sim.state.delta_u = saved_delta_u
+            self.state.delta_u = saved_delta_u
             self.progress.close()
         lin = self.linear
         solver_stats(
@@ -493,4 +496,4 @@ class QuasiStaticRun:
         n = self.n
         np.add(self.x, self.u, out=self.y)
         self.v[:n] = predictor
-        verlet.run(sim)
+        verlet.run(sim, self.state)

@@ -88,7 +88,7 @@ class EnergyMonitor:
     fast_growth = 1000.0
 
     def __init__(self, sim, dt: float, dt_estimate: float, *, window: int = 10, accounting: bool = True, batch: int | None = None,
-                 beyond_limit: bool = False, where=None) -> None:
+                 beyond_limit: bool = False, where) -> None:
         self.sim = sim
         self.batch = batch if batch is not None else (1 if sim.comm.size == 1 else 16)
         self._rows: list[tuple[int, float, np.ndarray]] = []  # (step, time, local sums) not yet reduced
@@ -100,6 +100,7 @@ class EnergyMonitor:
         self.mass = sim.fields["Volume"][:n] * sim.density_per_point()[:n]
         self.free = np.ascontiguousarray(~sim.prescribed_dofs[:n])
         self._empty = np.zeros((0, 3))
+        self.place(where)
         self.has_prescribed = not bool(self.free.all())
         self.kinetic0 = self.kinetic_free()
         self.shadow0 = self.shadow = sim.comm.allreduce_sum(self._shadow_local())
@@ -139,13 +140,13 @@ class EnergyMonitor:
         #: the step is above the stable limit measured on the model (a run too short for the
         #: unstable vibration to grow much was let start): any energy error it shows stops the run
         self.beyond_limit = beyond_limit
-        self.place(where if where is not None else sim.host)
         if self.stored0 is not None and self.stored0 > self.floor:
             self._check_start()
 
     def place(self, where) -> None:
         """Reduce each step's sums where the step's arrays are (``where``, a
-        :class:`~peridyn.core.placement.Placement`); seven numbers then cross to the host."""
+        :class:`~peridyn.core.placement.Placement`, whose solver state's host acceleration the
+        diagnosis reads); seven numbers then cross to the host."""
         self._step = (where, where.resident(self.free), where.resident(self.mass), where.zeros(STEP_SUMS.width))
 
     def supply(self) -> float:
@@ -169,7 +170,7 @@ class EnergyMonitor:
         return all(type(blk.material).stored_energy_density is not Material.stored_energy_density for blk in sim.blocks)
 
     def _shadow_local(self) -> float:
-        a = self.sim.state.acceleration
+        a = self._step[0].state.acceleration
         if a is None:
             return 0.0
         return self._shadow_of(a)
@@ -357,7 +358,7 @@ class EnergyMonitor:
         ratio = sim.comm.allreduce_sum(local) / (self.kinetic0 + self.stored0 + self.floor)
         self.resolution = max(self.resolution, ratio)
         if ratio > self.coarse:
-            self._fail_resolution(0, sim.state.time, ratio)
+            self._fail_resolution(0, sim.clock.time, ratio)
 
     def _check_fast_growth(self, step: int, time: float) -> None:
         """Without an energy account: kinetic energy 1000x larger at each of 3 consecutive steps
@@ -395,7 +396,7 @@ class EnergyMonitor:
 
     def _fastest_acceleration(self) -> str:
         """The point of largest acceleration over all ranks (where the step is least resolved)."""
-        return self._locate(self.sim.state.acceleration)
+        return self._locate(self._step[0].state.acceleration)
 
     def _advice(self) -> str:
         self._step[0].to_host()  # the contact's state of a GPU run

@@ -35,7 +35,7 @@ def measured_stable_step(sim, dt: float, *, iterations: int = 40, stop_below: fl
     x, u, y, vel = f["Model_Coordinates"], f["Displacement"], f["Coordinates"], f["Velocity"]
     rate = any(blk.material.tangent_perturbs_velocity for blk in sim.blocks)
     saved = f.snapshot()
-    saved_dt = sim.state.time_step
+    saved_dt = sim.time_step
     if rate:
         sim.set_time_step(dt)
         v0 = vel[:n].copy()

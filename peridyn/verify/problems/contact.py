@@ -32,6 +32,7 @@ from ...solvers.explicit.verlet import Verlet
 from ...testing import build_simulation
 from ...testing.tensile import lattice_family
 from ..fit import fit_rate
+from ...engine.session import run_section
 from .base import Check, Measurement, Problem
 from .dynamics import Stability, _section, quiet
 from .families import one_thread
@@ -285,7 +286,7 @@ class Hertz(Problem):
                 rows.append((-float(u[cap, 2]), force, -float(u[deep, 2]), -float(np.mean(u[ring, 2])), -float(u[top, 2])))
 
             with patch.object(sim, "write_output", record):  # the harness reads every step, as an output would
-                Verlet(_section(info["duration"], {"Fixed dt": dt})).run(sim)
+                run_section(sim, Verlet(_section(info["duration"], {"Fixed dt": dt})))
             st = sim.stats["solvers"][-1]
             law = self.contact_law(sim, top, tree, info["rc"])
             model = f["Contact_Force_Density"][top] * f["Volume"][top]
@@ -476,7 +477,7 @@ class ContactStability(Stability):
         solver.MEASURE_ABOVE = math.inf  # the runs decide, not the set-up check
         kinetic0 = sim.kinetic_energy()  # the initial velocities are set at set-up
         try:
-            solver.run(sim)
+            run_section(sim, solver)
         except InstabilityError as exc:
             at = re.search(r"at step (\d+)", str(exc))
             return Trial(factor, "stopped", int(at.group(1)) if at else steps, message=str(exc))

@@ -14,6 +14,7 @@ from ...core.errors import InstabilityError
 from ...solvers.monitors.stable_step import measured_stable_step
 from ...solvers.explicit.verlet import Verlet, VerletSection
 from ...testing import build_simulation, cube_deck
+from ...engine.session import run_section
 from .base import Check, Measurement, Problem, simulation
 from .modal import Modes, force_stiffness
 
@@ -130,7 +131,7 @@ class VerletEnergy(Problem):
         section = {"Initial Time": 0.0, "Final Time": self.T_END * (1 + 1e-12), "Verlet": {"Fixed dt": self.T_END / steps}}
         sim = simulation(dict(tree, Solver=section))  # the deck names its solver: the GPU's set-up checks it has a GPU path
         sim.fields["Velocity"][:] = self.initial_velocity(np.array(sim.fields["Model_Coordinates"]), n)
-        Verlet(VerletSection.model_validate(section)).run(sim)
+        run_section(sim, Verlet(VerletSection.model_validate(section)))
         return np.array(sim.fields["Displacement"]), sim.stats["solvers"][-1]
 
     def measure(self, method: str, resolution: float, quick: bool) -> Measurement:
@@ -220,7 +221,7 @@ class Stability(Problem):
         solver = Verlet(_section(steps * dt * (1 + 1e-9), {"Safety Factor": factor}))
         solver.MEASURE_ABOVE = math.inf  # the runs decide, not the set-up check
         try:
-            solver.run(sim)
+            run_section(sim, solver)
         except InstabilityError:
             return False, int(sim.stats["solvers"][-1]["steps"]) if sim.stats.get("solvers") else 0
         return bool(np.all(np.isfinite(sim.fields["Velocity"]))), steps

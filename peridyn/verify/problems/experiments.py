@@ -19,6 +19,7 @@ from typing import Any, Callable, Iterator
 
 import numpy as np
 
+from ...engine.session import run_section
 from .base import Check, Measurement, Problem
 
 # --- the Kalthoff-Winkler plate (Kalthoff 2000; Silling 2003) ---------------------------------
@@ -178,7 +179,7 @@ def recorded_run(tree: dict[str, Any], safety: float, t_end: float, every: int, 
         solver = Verlet(_section(steps * dt * (1.0 + 1e-9), {"Fixed dt": dt}))
         solver.MEASURE_ABOVE = math.inf
         with patch.object(sim, "write_output", write):  # the harness reads every step, as an output would
-            solver.run(sim)
+            run_section(sim, solver)
     return sim, dt
 
 

@@ -12,6 +12,7 @@ from ...core.errors import InstabilityError
 from ...solvers.explicit.verlet import Verlet
 from ...testing import build_simulation, cube_deck
 from ..materials import G, K, RHO, material_names, parameters
+from ...engine.session import run_section
 from .base import Check, Measurement, Problem
 from .dynamics import _section, quiet
 from .families import one_thread
@@ -155,7 +156,7 @@ class RigidRotation(Problem):
             unstable = ""
             try:
                 with patch.object(sim, "write_output", record):
-                    Verlet(_section(4 * quarter * dt * (1.0 + 1e-9), {"Fixed dt": dt})).run(sim)
+                    run_section(sim, Verlet(_section(4 * quarter * dt * (1.0 + 1e-9), {"Fixed dt": dt})))
                 account = float(sim.stats["solvers"][-1]["energy"]["stored_from_work"]) / kinetic0
             except InstabilityError as exc:  # a spin that blows up is this problem's answer, not a crash
                 unstable, account = str(exc).split(";")[0][:200], -math.inf

@@ -83,32 +83,44 @@ def test_the_engine_provides_every_declared_name(damage):
     assert Simulation.writable <= declared()
 
 
-def state_writes() -> list[tuple[str, int, str]]:
-    """(file, line, name) of every assignment to ``sim.state.NAME`` (or ``self.sim.state.NAME``)."""
+def clock_writes() -> list[tuple[str, int, str]]:
+    """(file, line, name) of every assignment to ``sim.clock.NAME`` (or ``self.sim.clock.NAME``)."""
     found = []
     for path in sorted(PACKAGE.rglob("*.py")):
         rel = str(path.relative_to(PACKAGE.parent))
         for node in ast.walk(ast.parse(path.read_text())):
             if (isinstance(node, ast.Attribute) and isinstance(node.ctx, (ast.Store, ast.Del))
-                    and isinstance(node.value, ast.Attribute) and node.value.attr == "state" and is_simulation(node.value.value)):
+                    and isinstance(node.value, ast.Attribute) and node.value.attr == "clock" and is_simulation(node.value.value)):
                 found.append((rel, node.lineno, node.attr))
     return found
 
 
-def test_only_solvers_and_the_engine_write_the_solver_state():
-    """The solver state (time, step, acceleration, increments, iterations) is written by the
-    solvers, the placements of a step and the engine (set-up, checkpoints), never by a model,
-    compute, condition or output."""
-    from peridyn.core.state import SolverState
+def test_the_solver_state_is_handed_on_not_held_by_the_simulation():
+    """The solver state (time, acceleration, increments, iterations, shared tangents) is what a
+    section is handed and returns (``Solver.run(sim, state) -> SolverState``); the simulation
+    shows only its clock, read-only, and holds no acceleration or increments of its own."""
+    import inspect
 
-    writes = state_writes()
-    assert len(writes) > 15  # the scan sees the solvers' writes
-    allowed = ("peridyn/solvers/", "peridyn/engine/", "peridyn/gpu/placement.py")
-    bad = [f"{f}:{line}: state.{name}" for f, line, name in writes if not f.startswith(allowed)]
-    assert not bad, "the solver state written outside the solvers and the engine:\n" + "\n".join(bad)
-    fields = set(SolverState.__dataclass_fields__)
-    unknown = [f"{f}:{line}: state.{name}" for f, line, name in writes if name not in fields]
-    assert not unknown, "members of the solver state that SolverState does not declare:\n" + "\n".join(unknown)
+    from peridyn.core.interfaces import Solver
+    from peridyn.core.state import Clock, SolverState
+
+    assert "state" not in declared()
+    assert Simulation.__annotations__["clock"] in (Clock, "Clock")
+    clock_members = {n for n in vars(Clock) if not n.startswith("_")}
+    assert clock_members and clock_members <= set(SolverState.__dataclass_fields__)
+    assert not {"acceleration", "delta_u", "delta_p", "solver_cache"} & clock_members
+    assert list(inspect.signature(Solver.run).parameters) == ["self", "sim", "state"]
+    sim = build_simulation(cube_deck({"Material Model": "Elastic", "Density": 1.0, "Bulk Modulus": 1.0, "Shear Modulus": 0.5}, n=4))
+    assert not [k for k, v in vars(sim).items() if isinstance(v, SolverState) and k != "clock"]
+    writes = clock_writes()
+    assert not writes, "the clock written (write the state the solver was handed):\n" + "\n".join(f"{f}:{line}: {n}" for f, line, n in writes)
+
+
+def test_the_clock_check_sees_a_write(tmp_path):
+    tree = ast.parse("def f(sim):\n    sim.clock.time = 1.0\n")
+    hits = [n for n in ast.walk(tree) if isinstance(n, ast.Attribute) and isinstance(n.ctx, ast.Store)
+            and isinstance(n.value, ast.Attribute) and n.value.attr == "clock" and is_simulation(n.value.value)]
+    assert len(hits) == 1
 
 
 def test_the_contract_types_every_member():

@@ -38,6 +38,7 @@ SCRIPT = textwrap.dedent(
 
     cuda_dispatcher.get_current_device = lambda: NoDevice()
     from peridyn.core.traversal import PointReduction, PointUpdate
+    from peridyn.core.state import SolverState
     from peridyn.gpu.placement import DevicePlacement
     from peridyn.kernels import codegen
     from peridyn.kernels import scatter as S
@@ -91,7 +92,7 @@ SCRIPT = textwrap.dedent(
 
     for tree in json.loads(sys.argv[1]):
         sim = build_simulation(tree["Peridigm"], directory=".")
-        DevicePlacement(sim, PTXBackend()).evaluate_forces()
+        DevicePlacement(sim, PTXBackend(), SolverState()).evaluate_forces()
 
     # the step's point laws with the types the step calls them with
     b = PTXBackend()

@@ -316,6 +316,7 @@ def test_owned_block_of_a_tangent(h):
 
 def test_nox_aztec_ilu_preconditioner_is_ilu0_of_the_tangent(h):
     """NOXQuasiStatic's "Aztec Preconditioner: ilu" (serially: the whole BC-modified tangent)."""
+    from peridyn.core.state import SolverState
     from peridyn.solvers.implicit.nox import NOXRun
 
     tree = h.box_deck(h.LPS, shape=(5, 3, 3))
@@ -327,7 +328,7 @@ def test_nox_aztec_ilu_preconditioner_is_ilu0_of_the_tangent(h):
     tree["Solver"] = {"Final Time": 1.0, "NOXQuasiStatic": {"Number of Load Steps": 1, "Direction": {"Method": "Newton", "Newton": {"Linear Solver": lin}}}}
     sim = h.build(tree)
     entry = sim.deck.solvers[0]
-    run = NOXRun(entry.cls(entry.params, section=entry.section), sim)
+    run = NOXRun(entry.cls(entry.params, section=entry.section), sim, SolverState())
     h.perturb(sim)
     s = np.zeros(3 * run.n)
     run.jacobian(s)

@@ -96,11 +96,11 @@ def test_a_quasi_static_run_takes_the_same_newton_iterations(tmp_path, compiled_
     t = tree(steps=2, pull=2.0e-3)
     sim = build_simulation(t, directory=tmp_path)
     run_sections(sim)
-    compiled = (sim.state.nonlinear_iterations, sim.fields["Coordinates"].copy())
+    compiled = (sim.clock.nonlinear_iterations, sim.fields["Coordinates"].copy())
     assert compiled_calls and all(compiled_calls)
     python_fd()
     sim = build_simulation(t, directory=tmp_path)
     run_sections(sim)
     assert compiled[0] > 0
-    assert sim.state.nonlinear_iterations == compiled[0]
+    assert sim.clock.nonlinear_iterations == compiled[0]
     np.testing.assert_array_equal(sim.fields["Coordinates"], compiled[1])

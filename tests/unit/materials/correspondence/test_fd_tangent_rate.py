@@ -100,11 +100,11 @@ def test_a_quasi_static_run_takes_the_same_newton_iterations(tmp_path, monkeypat
     t = tree(materials, pull=pull)
     sim = build_simulation(t, directory=tmp_path)
     run_sections(sim)
-    compiled = (sim.state.nonlinear_iterations, sim.fields["Coordinates"].copy())
+    compiled = (sim.clock.nonlinear_iterations, sim.fields["Coordinates"].copy())
     assert calls and all(calls)
     monkeypatch.setattr(cls, "tangent", lambda self, block, target: False)
     sim = build_simulation(t, directory=tmp_path)
     run_sections(sim)
     assert compiled[0] > 0
-    assert sim.state.nonlinear_iterations == compiled[0]
+    assert sim.clock.nonlinear_iterations == compiled[0]
     np.testing.assert_array_equal(sim.fields["Coordinates"], compiled[1])

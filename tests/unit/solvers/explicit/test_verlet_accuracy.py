@@ -9,6 +9,7 @@ import numpy as np
 
 from peridyn.solvers.explicit.verlet import Verlet, VerletSection
 from peridyn.testing import build_simulation, cube_deck
+from peridyn.engine.session import run_section
 
 LPS = {"Material Model": "Elastic", "Density": 1000.0, "Bulk Modulus": 1.0e9, "Shear Modulus": 0.6e9}
 
@@ -20,7 +21,7 @@ def impact(n: int, ratio: float, safety: float, steps: int = 120):
     sim.fields["Velocity"][x[:, 0] > x[:, 0].max() - 5e-4, 0] = -1.0
     dt = sim.critical_time_step() * safety
     section = VerletSection.model_validate({"Initial Time": 0.0, "Final Time": steps * dt * (1 + 1e-9), "Verlet": {"Safety Factor": safety}})
-    Verlet(section).run(sim)
+    run_section(sim, Verlet(section))
     return sim
 
 

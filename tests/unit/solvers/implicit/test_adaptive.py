@@ -91,7 +91,7 @@ def test_halving_until_a_step_converges_then_the_remaining_steps(h, tmp_path, to
     assert [dt for dt, _ in got] == [1.0, 0.5, 0.25, 0.25, 0.5, 0.25, 0.25]
     assert [o for _, o in got] == ["cut back", "cut back", "accepted", "accepted", "cut back", "accepted", "accepted"]
     assert sim.stats["solvers"][0]["load_step_reductions"] == 3
-    assert sim.state.time == pytest.approx(1.0)
+    assert sim.clock.time == pytest.approx(1.0)
     assert sim.outputs.writers[0].frequency == 8  # doubled at each of the three halvings
 
 

@@ -137,7 +137,7 @@ def test_linear_solvers_reach_the_same_steady_state(tmp_path, options):
 def test_absolute_tolerance_and_no_work_when_converged(tmp_path):
     """A uniform field already in equilibrium: no iteration at all."""
     sim = run_deck(bar_deck(n=8, value=300.0, initial=300.0, steps=2), tmp_path)
-    assert sim.state.nonlinear_iterations == 0
+    assert sim.clock.nonlinear_iterations == 0
     tree = bar_deck(n=8, steps=1, **{"Absolute Tolerance": 1e-6})
     tree["Solver"]["ImplicitDiffusion"].pop("Relative Tolerance")
     sim = run_deck(tree, tmp_path)

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from peridyn.core.errors import InputError
-from peridyn.engine.session import run_sections
+from peridyn.engine.session import run_section, run_sections
 
 
 def bar_deck(h, solver, *, damage=False, shape=(6, 3, 3), pull=0.01):
@@ -91,7 +91,7 @@ def test_nox_option_trees_are_accepted(h):
     }
     sim = h.build(bar_deck(h, solver))
     run_sections(sim)
-    assert sim.state.nonlinear_iterations >= 1
+    assert sim.clock.nonlinear_iterations >= 1
 
 
 def test_reactions_balance_and_force_output(h):
@@ -163,13 +163,13 @@ def test_quasistatic_then_verlet_starts_from_the_quasistatic_state(h):
     tree["Solver2"] = {"Initial Time": 1.0e-5, "Final Time": 1.2e-5, "Verlet": {"Fixed dt": 1.0e-6}}
     sim = h.build(tree)
     entries = sim.deck.solvers
-    entries[0].cls(entries[0].params, section=entries[0].section).run(sim)
+    state = run_section(sim, entries[0].cls(entries[0].params, section=entries[0].section))
     u_qs = sim.fields["Displacement"].copy()
     v_qs = sim.fields["Velocity"].copy()
     x = sim.fields["Model_Coordinates"]
     right = x[:, 0] > 5.0
     np.testing.assert_allclose(v_qs[right, 0], 0.005 / 5.0e-6, rtol=1e-12)  # (1000 t) over the second load step
-    entries[1].cls(entries[1].params, section=entries[1].section).run(sim)
+    run_section(sim, entries[1].cls(entries[1].params, section=entries[1].section), state)
     du = sim.fields["Displacement"] - u_qs
     steps = sim.stats["solvers"][-1]["steps"]  # floor((t_f - t_0)/dt), Peridigm's count
     assert steps >= 1
@@ -198,7 +198,7 @@ def test_switch_to_verlet_after_too_many_reductions(h):
     methods = [st["method"] for st in sim.stats["solvers"]]
     assert methods == ["QuasiStatic", "Verlet"]
     assert sim.stats["solvers"][1]["steps"] == 20
-    assert sim.state.time == pytest.approx(2.0e-6)
+    assert sim.clock.time == pytest.approx(2.0e-6)
 
 
 NEWTON_MF = {"Method": "Newton", "Newton": {"Linear Solver": {"Jacobian Operator": "Matrix-Free", "Preconditioner": "None"}}}
@@ -232,7 +232,7 @@ def test_nox_variants_reach_the_quasistatic_equilibrium(h, preconditioner, direc
     u, u_ref = sim.fields["Displacement"], ref.fields["Displacement"]
     np.testing.assert_allclose(u, u_ref, rtol=0, atol=1e-7 * np.abs(u_ref).max())
     np.testing.assert_allclose(sim.fields["Velocity"], ref.fields["Velocity"], rtol=0, atol=1e-7 * np.abs(ref.fields["Velocity"]).max())
-    assert sim.state.nonlinear_iterations >= 2
+    assert sim.clock.nonlinear_iterations >= 2
 
 
 def test_nox_counts_one_step_when_the_initial_guess_has_converged(h):
@@ -241,7 +241,7 @@ def test_nox_counts_one_step_when_the_initial_guess_has_converged(h):
     solver = {"Initial Time": 0.0, "Final Time": 1.0, "NOXQuasiStatic": {"Number of Load Steps": 3, "Absolute Tolerance": 1.0, "Direction": {"Method": "Newton"}}}
     sim = h.build(bar_deck(h, solver, pull=0.0))
     run_sections(sim)
-    assert sim.state.nonlinear_iterations == 3
+    assert sim.clock.nonlinear_iterations == 3
 
 
 def test_nox_failure_stops_the_run(h):
@@ -264,6 +264,6 @@ def test_matrix_free_without_peridigm_preconditioner_warns_of_the_full_tangent(h
         solver["Peridigm Preconditioner"] = preconditioner
     sim = h.build(bar_deck(h, solver))
     with caplog.at_level("WARNING", logger="peridyn"):
-        run_sections(sim)
+        state = run_sections(sim)
     assert any("assembles the full tangent" in r.getMessage() for r in caplog.records) == warned
-    assert list(sim.state.solver_cache["implicit tangents"]) == [tangent]
+    assert list(state.solver_cache["implicit tangents"]) == [tangent]

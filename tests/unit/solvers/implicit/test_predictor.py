@@ -3,6 +3,7 @@ QuasiStatic or NOXQuasiStatic solver takes over from the first one."""
 import numpy as np
 import pytest
 
+from peridyn.engine.session import run_section
 from tests.unit.solvers.implicit.test_implicit_solvers import bar_deck
 
 PULL = 1.0e-7  # small: the peridynamic bar is geometrically nonlinear, the increments agree to O(strain)
@@ -21,9 +22,9 @@ def run_pair(sim):
     """Run both solvers; returns (v after solver 1, v at solver 2's first write, iterations of
     solver 1, iterations of solver 2)."""
     entries = sim.deck.solvers
-    entries[0].cls(entries[0].params, section=entries[0].section).run(sim)
+    state = run_section(sim, entries[0].cls(entries[0].params, section=entries[0].section))
     v1 = sim.fields["Velocity"].copy()
-    it1 = sim.state.nonlinear_iterations
+    it1 = sim.clock.nonlinear_iterations
     seen = []
     write = sim.write_output
 
@@ -33,8 +34,8 @@ def run_pair(sim):
         write(t)
 
     sim.write_output = spy
-    entries[1].cls(entries[1].params, section=entries[1].section).run(sim)
-    return v1, seen[0], it1, sim.state.nonlinear_iterations - it1
+    run_section(sim, entries[1].cls(entries[1].params, section=entries[1].section), state)
+    return v1, seen[0], it1, sim.clock.nonlinear_iterations - it1
 
 
 NOX = {"Number of Load Steps": 1, "Relative Tolerance": 1e-7, "Direction": {"Method": "Newton"}}

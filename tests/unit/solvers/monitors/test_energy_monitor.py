@@ -14,6 +14,7 @@ from peridyn.solvers.monitors.energy import EnergyMonitor
 from peridyn.solvers.monitors.stable_step import measured_stable_step
 from peridyn.solvers.explicit.verlet import Verlet, VerletSection
 from peridyn.testing import build_simulation, cube_deck, node_set_ids
+from peridyn.engine.session import run_section
 
 ELASTIC = {"Material Model": "Elastic", "Density": 7800.0, "Bulk Modulus": 130.0e9, "Shear Modulus": 78.0e9}
 BOND_BASED = {"Material Model": "Elastic Bond Based", "Density": 7800.0, "Bulk Modulus": 130.0e9}
@@ -22,7 +23,7 @@ BOND_BASED = {"Material Model": "Elastic Bond Based", "Density": 7800.0, "Bulk M
 def verlet(sim, steps, **method):
     dt = method.get("Fixed dt", sim.critical_time_step()) * method.get("Safety Factor", 1.0)
     section = VerletSection.model_validate({"Initial Time": 0.0, "Final Time": steps * dt * (1 + 1e-9), "Verlet": method})
-    Verlet(section).run(sim)
+    run_section(sim, Verlet(section))
     return sim.stats["solvers"][-1]
 
 
