@@ -8,6 +8,7 @@ import os
 import sys
 import time
 from pathlib import Path
+from typing import NoReturn
 
 from .core.errors import ExitCode, InputError, InstabilityError, OutputWriteError, PeridynError
 from .core.logs import say, setup_logging
@@ -296,7 +297,7 @@ def cmd_verify(args) -> int:
 class _Parser(argparse.ArgumentParser):
     """argparse with the project's form of a usage error: one line on stderr, exit 2 (no usage block)."""
 
-    def error(self, message: str) -> "NoReturn":  # type: ignore[override]
+    def error(self, message: str) -> NoReturn:  # type: ignore[override]
         text = " ".join(message.split())
         sys.stderr.write(f"error: {self.prog}: {text}; see {self.prog} --help\n")
         sys.exit(int(ExitCode.INPUT_ERROR))

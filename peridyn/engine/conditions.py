@@ -13,7 +13,7 @@ Expressions are evaluated at the points' *reference* coordinates.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Callable, ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 from pydantic import Field, field_validator
