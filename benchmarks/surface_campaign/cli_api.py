@@ -127,7 +127,9 @@ def gen_cli(rng: random.Random, fx: Fixtures) -> Case:
         (tmp / "in.xml").write_text(XML_DECK)
         (tmp / "base.e").write_bytes(fx.result.read_bytes())
         return Spec(argv=argv, names=names, sentinels=[tmp / "base.e", tmp / "existing" / "keep.txt", tmp / "afile", tmp / "in.xml"])
-    return Case("cli", f"{cmd} {what}", expect, setup, timeout=60.0)
+    # a run on the GPU path is, in CI, a run under numba-cuda's simulator, which interprets every
+    # kernel thread in Python: 60 s is not a hang there on a cold, loaded 2-core machine
+    return Case("cli", f"{cmd} {what}", expect, setup, timeout=180.0 if what == "--device GPU" else 60.0)
 
 
 # ------------------------------------------------------------------------------------------------
