@@ -176,12 +176,12 @@ class Checkpoints:
         self._resume = None
         return int(r["step"]), _restore_monitor(self.sim, r["monitor"])
 
-    def after_step(self, step: int, monitor, state: SolverState, where=None) -> None:
+    def after_step(self, step: int, monitor, where) -> None:
         """End of Verlet step ``step`` (after the output and the swap of N and NP1): a
-        checkpoint of the model and ``state`` every ``Restart Frequency`` steps, and on a
+        checkpoint of the model and the solver state every ``Restart Frequency`` steps, and on a
         signal (then RunInterrupted). ``where``: the step's
-        :class:`~peridyn.core.placement.Placement`, whose arrays are brought to the host before
-        a checkpoint is written (a GPU run's)."""
+        :class:`~peridyn.core.placement.Placement`, whose arrays (a GPU run's) are brought to
+        the host before a checkpoint of its solver state is written."""
         p = self.params
         if p is None or not self.polling:
             return
@@ -189,9 +189,8 @@ class Checkpoints:
         signum = self._agreed_signal(step, due)
         if due or signum:
             monitor.flush()  # the accumulators of every step so far (MPI batches them)
-            if where is not None:
-                where.to_host()
-            self.write(self.section, step, state, monitor)
+            where.to_host()
+            self.write(self.section, step, where.state, monitor)
         if signum:
             raise self._interrupted(signum, step)
 

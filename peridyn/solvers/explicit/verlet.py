@@ -259,7 +259,7 @@ class Verlet(Solver):
                 where.advance()
                 progress.update(step)
                 if restart is not None:
-                    restart.after_step(step, monitor, state, where)  # a checkpoint when due or signalled
+                    restart.after_step(step, monitor, where)  # a checkpoint when due or signalled
                 yield step
         except instability:
             where.to_host()  # the diagnosis and the last frame read the host's arrays
