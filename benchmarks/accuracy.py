@@ -21,6 +21,7 @@ import time
 import numpy as np
 from scipy.special import sici
 
+from peridyn.engine.run_services import RunServices
 from peridyn.solvers.explicit.verlet import Verlet, VerletSection
 from peridyn.testing import build_simulation, cube_deck
 from peridyn.engine.session import run_section, run_sections
@@ -108,9 +109,10 @@ def wave() -> None:
         with tempfile.TemporaryDirectory() as tmp:
             sim = build_simulation(tree, output_dir=tmp)
             t0 = time.perf_counter()
-            run_section(sim, Verlet(sim.deck.solvers[0].params))
+            run = RunServices.of(sim)
+            run_section(sim, Verlet(sim.deck.solvers[0].params), run=run)
             wall = time.perf_counter() - t0
-            sim.outputs.close()
+            run.close()
             r = read_results(f"{tmp}/wave.h")
         t, v = r["times"], r["global"]["MidX"]
         speed = (0.05 - 1.5 * h) / t[np.argmax(v > 2.5)]

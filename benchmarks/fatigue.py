@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from peridyn.engine.run_services import RunServices
 from peridyn.io.exodus_reader import read_results
 from peridyn.solvers.implicit.load_steps import LoadStepError
 from peridyn.testing.harness import build_simulation, node_set_ids
@@ -96,11 +97,12 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         sim = build_simulation(plate_deck(), output_dir=tmp)
         n_points = sim.num_global
+        run = RunServices.of(sim)
         try:
-            run_sections(sim)
+            run_sections(sim, run=run)
         except (LoadStepError, RuntimeError) as exc:  # the plate breaks in two (a singular tangent): the converged steps are kept
             print(f"stopped at t = {sim.clock.time:g}: {exc}")
-        sim.outputs.close(complete=True)
+        run.close(complete=True)
         r = read_results(Path(tmp) / "sent.e")
     wall = time.perf_counter() - t0
     x = r["coords"]

@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from peridyn.engine.run_services import RunServices
 from peridyn.damage.critical_energy import bond_based_critical_stretch
 from peridyn.testing.harness import build_simulation
 from peridyn.engine.session import run_sections
@@ -112,11 +113,11 @@ def growth(m: int) -> None:
                                         "Maximum Solver Iterations": 40}}
     sim = build_simulation(tree)
     x = sim.fields["Model_Coordinates"]
-    write = sim.write_output
+    run = RunServices.of(sim)
     print(f"m = {m}: {sim.num_global} points")
 
     def record(t: float) -> None:
-        write(t)
+        run.write_output(t)
         sigma = plate.mean_stress(sim, g)
         broken = int(np.sum(sim.fields["Bond_Damage"]))
         if broken == 0 and t > 0:
@@ -127,11 +128,10 @@ def growth(m: int) -> None:
         tip = np.max(np.abs(x[: sim.num_owned][damaged, 0])) / plate.DX if damaged.any() else a_cells
         print(f"  t = {t:.3f}  sigma/sigma_G = {sigma / sigma_G:.4f}  broken bonds {broken}  tip at {tip:.1f} dx (a = {a_cells} dx)", flush=True)
 
-    sim.write_output = record
     from peridyn.solvers.implicit.quasistatic import LoadStepError
 
     try:
-        run_sections(sim)
+        run_sections(sim, run=RunServices.reading(record))
     except LoadStepError as exc:  # the load step in which the crack runs finds no equilibrium
         print(f"  stopped: {type(exc).__name__}: {str(exc)[:160]}")
 

@@ -39,18 +39,19 @@ def child(deck_path: str, linear_solver: str, out_dir: str) -> dict:
 
     deck = load_deck(deck_path)
     comm = get_comm()
-    sim = Simulation(deck, comm=comm, output_dir=out_dir, progress=False)
+    sim = Simulation(deck, comm=comm, output_dir=out_dir)
     setup = time.perf_counter() - wall0
     state = None
+    run = RunServices.of(sim)
     try:
         for entry in deck.solvers:
             params = entry.params
             sub = getattr(params, "quasi_static", None)
             if sub is not None and linear_solver != "Belos":
                 params = params.model_copy(update={"quasi_static": sub.model_copy(update={"linear_solver": linear_solver})})
-            state = run_section(sim, entry.cls(params, section=entry.section), state)
+            state = run_section(sim, entry.cls(params, section=entry.section), state, run)
     finally:
-        sim.outputs.close()
+        run.close()
     st = next(s for s in sim.stats["solvers"] if s["method"] == "QuasiStatic")
     return {
         "linear_solver": st["linear_solver"],

@@ -30,6 +30,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from peridyn.engine.run_services import RunServices
 from peridyn.engine.session import run_sections
 
 K, MU, HORIZON = 160.0e9, 80.0e9, 1.0e-3
@@ -58,8 +59,9 @@ def child(ratio: float, section: float, solver: str, directory: str) -> dict:
 
     bar = tensile_bar(MATERIAL, directory, ratio=ratio, horizon=HORIZON, section=section, solver=solver_section(solver))
     sim = build_simulation(bar.tree, directory=directory)
-    run_sections(sim)
-    sim.outputs.close()
+    run = RunServices.of(sim)
+    run_sections(sim, run=run)
+    run.close()
     st = sim.stats["solvers"][-1]
     modulus = bar.youngs_modulus(sim)
     return {

@@ -106,12 +106,14 @@ def cmd_check(args) -> int:
     from .engine.simulation import Simulation
 
     _setup_logging(args.verbose - args.quiet)
+    from .engine.output import OutputFiles
     from .engine.output_paths import check_output_names, check_run_paths
 
     deck = load_deck(args.deck)
     check_output_names(deck, Path.cwd())
-    sim = Simulation(deck, output_dir=Path.cwd(), progress=False, write_files=False, device=args.device)  # a check writes nothing
-    check_run_paths(sim)
+    sim = Simulation(deck, output_dir=Path.cwd(), write_files=False, device=args.device)  # a check writes nothing
+    files = OutputFiles(sim)  # what a run would write: listed and its paths checked, nothing written
+    check_run_paths(sim, files)
     nl = sim.bonds
     counts = nl.counts()
     vol = sim.fields["Volume"]
@@ -146,7 +148,7 @@ def cmd_check(args) -> int:
     for entry, (_, steps, seconds) in zip(deck.solvers, sim.plan_solvers()):
         planned = f", {steps} steps, estimated {human_seconds(seconds)} on one core" if steps is not None else ""
         print(f"  solver {entry.section}: {entry.method}{planned}")
-    for w in sim.outputs.writers:
+    for w in files.writers:
         print(f"  output {w.entry.section}: {w.path.name}, every {w.frequency} step(s), {len(w.names)} variable(s)")
     if deck.restart is not None:
         r = deck.restart

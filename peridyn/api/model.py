@@ -19,6 +19,7 @@ import numpy as np
 
 from ..core.errors import InputError, PeridynError
 from ..core.fields import Temporal
+from ..core.services import RunServices
 from ..deck.model import tidy
 from ..solvers.explicit.verlet import Verlet
 from .checks import (ArgumentError, ArgumentTypeError, UnknownNameError, a_callable, finite_number, name_text, real_array,
@@ -367,7 +368,7 @@ class Model:
                     self._finish(summary=True)
                     return False
                 solver = plan[self._section][0]
-                restart = self.sim.restart
+                restart = self._services.checkpoints
                 if restart is not None and not restart.begin_section(self._section, solver):
                     self._section += 1  # done before the checkpoint this run continues from
                     continue
@@ -375,7 +376,7 @@ class Model:
                     self._started = True
                     # a GPU run's fields come back at every step, so that what a step(n) caller reads is current
                     self.sim.show_clock(self.session.state)
-                    self._generator = solver.steps(self.sim, self.session.state, host_each_step=self.sim.device == "gpu")
+                    self._generator = solver.steps(self.sim, self.session.state, self._services, host_each_step=self.sim.device == "gpu")
                     self._guard(lambda: next(self._generator))  # step 0: forces and output at the initial time
                     self._record(0)
                     continue
@@ -387,7 +388,7 @@ class Model:
                 self._started = True
                 from ..engine.session import run_section
 
-                self.session.state = self._guard(lambda: run_section(self.sim, solver, self.session.state))
+                self.session.state = self._guard(lambda: run_section(self.sim, solver, self.session.state, self._services))
                 self._end_section(solver)
                 self.steps_taken += 1
                 self._record(0, force=True)
@@ -409,9 +410,16 @@ class Model:
                     self._finish(summary=True)
             return True
 
+    @property
+    def _services(self) -> RunServices:
+        """The run's output files, checkpoints and progress (the session's, made with the model)."""
+        services = self.session.services
+        assert services is not None  # the session was opened in __init__
+        return services
+
     def _end_section(self, solver) -> None:
         """The section now running has ended: its checkpoint (with a Restart section), the next."""
-        restart = self.sim.restart
+        restart = self._services.checkpoints
         if restart is not None:
             self._guard(lambda: restart.end_section(self._section, solver, self.session.state))
         self._section += 1
@@ -483,14 +491,14 @@ class Model:
     @property
     def output_files(self) -> list[Path]:
         """The output files of the deck (final names), in deck order."""
-        return [w.path for w in self.sim.outputs.writers]
+        return [w.path for w in self._services.files.writers]
 
     def results(self, which: int | str = 0):
         """The results of an output file read back (``peridyn.read``): its index in the deck's
         outputs or its section name; after the run (or ``close()``)."""
         from .results import read
 
-        writers = self.sim.outputs.writers
+        writers = self._services.files.writers
         sections = ", ".join(repr(w.entry.section) for w in writers) or "none (the deck writes no output, or write_files=False)"
         if isinstance(which, str):
             chosen = [w for w in writers if w.entry.section == which]

@@ -30,7 +30,7 @@ from .services import (
     Influence,
     InterfaceOutput,
     Outputs,
-    RunCheckpoints,
+    RunServices,
 )
 from .solver_section import SolverSection
 from .state import Clock, SolverState
@@ -330,7 +330,6 @@ class Simulation(Protocol):
     node_sets: dict[str, np.ndarray]  #: node set name -> mothership indices
     prescribed_dofs: np.ndarray  #: (num_local, 3) bool, components a kinematic condition sets
     prescribed_points: np.ndarray  #: (k,) int64 sorted local points with a prescribed displacement component
-    restart: RunCheckpoints | None  #: checkpoints and restarts (peridyn.engine.restart.Checkpoints), None without a Restart section or --restart
     output_dir: Path  #: folder of the output files
     num_bonds_global: int  #: bonds of the whole model (each direction counted)
     block_index: np.ndarray  #: (num_local,) int64 index into ``blocks`` of each local point
@@ -346,12 +345,11 @@ class Simulation(Protocol):
     kinematic: list[Condition]  #: the conditions applied before a step (prescribed displacement, temperature, pressure)
     force_conditions: list[Condition]  #: the conditions that set External_Force_Density (body forces)
     data_loader: DataLoader | None  #: the deck's data loader (fields read from files over time), None without one
-    outputs: Outputs  #: the output manager (peridyn.engine.output.OutputManager)
+    outputs: Outputs  #: what the outputs compute (peridyn.engine.output.OutputManager); the files are the run's
     contact: ContactRun | None  #: the contact manager, None without a Contact section
     interfaces: InterfaceOutput | None  #: block interfaces (``Construct Interfaces``), None otherwise
     element_nodes: np.ndarray | None  #: (n, 8, 3) hexahedron nodes (``Compute Element-Horizon Intersections``), else None
-    write_files: bool  #: False for ``peridyn check``: nothing is written
-    progress: bool  #: whether solvers show progress
+    write_files: bool  #: False for ``peridyn check``: set-up writes nothing
     timers: dict[str, float]  #: wall-time sections (s) for the summary
     backend: Backend  #: where arrays live and bond loops run
     device: str  #: "cpu", or "gpu" for an explicit run on one GPU (``--device``, the solver's ``Device``)
@@ -381,9 +379,6 @@ class Simulation(Protocol):
 
     def critical_time_step(self) -> float:
         """The Silling-Askari stable time step of the model (T)."""
-
-    def write_output(self, t: float) -> None:
-        """Write every output whose frequency is due at time t."""
 
     def advance(self) -> None:
         """End of a step: the NP1 state becomes the N state."""
@@ -492,10 +487,11 @@ class Solver(ABC):
         self.section = section
 
     @abstractmethod
-    def run(self, sim: "Simulation", state: SolverState) -> SolverState:
-        """Advance ``sim`` from the solver's initial to its final time, writing output; ``state``
-        is what the section before left (a fresh one for the first section, or a checkpoint's),
-        and what it returns is handed to the next section."""
+    def run(self, sim: "Simulation", state: SolverState, run: RunServices) -> SolverState:
+        """Advance ``sim`` from the solver's initial to its final time, writing output through
+        ``run`` (its files, checkpoints and progress); ``state`` is what the section before left
+        (a fresh one for the first section, or a checkpoint's), and what it returns is handed to
+        the next section."""
 
     @classmethod
     def explicit_step(cls, params: SolverSection) -> tuple[float | None, float | None] | None:

@@ -1,7 +1,8 @@
 """What a simulation holds besides its arrays, each named by the members read outside the
-engine: the communicator and halo, the deck, the outputs, the checkpoints, the data loader, the
-interface output and the influence function. The ``Simulation`` protocol
-(:mod:`peridyn.core.interfaces`) types its members with these."""
+engine: the communicator and halo, the deck, the outputs, the data loader, the interface output
+and the influence function. The ``Simulation`` protocol (:mod:`peridyn.core.interfaces`) types
+its members with these. The run's services a solver is handed (output files, checkpoints,
+progress) are :class:`RunServices`."""
 from __future__ import annotations
 
 from collections.abc import Sequence
@@ -78,13 +79,27 @@ class OutputWriter(Protocol):
 
 
 class Outputs(Protocol):
-    """The output manager: the deck's outputs and the computes they need."""
+    """What the deck's outputs compute (:class:`peridyn.engine.output.OutputManager`): the
+    variables they name and the computes behind them. Part of the model: it decides which
+    fields exist; the files are the run's (:class:`OutputFiles`)."""
 
-    writers: list[OutputWriter]
     computes: dict[str, Any]  #: compute name -> Compute, in Peridigm's creation order
 
     def run_computes(self, names: Sequence[str]) -> None: ...
-    def write(self, t: float) -> None: ...
+
+
+class OutputFiles(Protocol):
+    """The output files of a run (:class:`peridyn.engine.output.OutputFiles`), one writer per
+    ``Output`` section, in deck order."""
+
+    writers: list[OutputWriter]
+
+    def write(self, t: float) -> None:
+        """Write a frame at time ``t`` (T) in every file whose frequency is due."""
+
+    def due_next(self) -> bool:
+        """Whether the next ``write`` writes a frame in some file."""
+
     def close(self, complete: bool = True) -> None: ...
 
 
@@ -97,6 +112,19 @@ class RunCheckpoints(Protocol):
     def end_section(self, k: int, solver: object, state: SolverState) -> None: ...
     def install_signals(self) -> None: ...
     def remove_signals(self) -> None: ...
+
+
+class RunServices(Protocol):
+    """What a solver calls of its run besides the model (:class:`peridyn.engine.run_services.RunServices`,
+    made by the run session, or by a test or harness for a bare simulation): the output files,
+    the checkpoints, and whether to show progress. Handed to :meth:`Solver.run` with the state."""
+
+    files: OutputFiles
+    checkpoints: RunCheckpoints | None  #: None without a Restart section or ``--restart``
+    progress: bool  #: whether solvers show progress bars
+
+    def write_output(self, t: float) -> None:
+        """Write every output whose frequency is due at time ``t`` (T)."""
 
 
 class DataLoader(Protocol):

@@ -2,7 +2,8 @@
 it, apart from the model (points, blocks, bonds, fields) it acts on.
 
 The engine makes one :class:`SolverState` for a run (or fills it from a checkpoint) and hands it
-to each section in deck order: ``state = solver.run(sim, state)``. A section starts from the
+to each section in deck order: ``state = solver.run(sim, state, run)`` (``run``: the run's services,
+:class:`peridyn.core.services.RunServices`). A section starts from the
 state the one before it left (the time, and the acceleration of the last dynamic step, which an
 implicit section's predictor reads) and returns its own. Nothing else holds it: the outputs,
 computes, messages and the Python API read the time and the iteration count of the running

@@ -180,9 +180,10 @@ def _check_meta(path: Path, meta: dict) -> None:
 
 
 # -- checking against the model --------------------------------------------------------------------
-def check_checkpoint(sim, path: Path, meta: dict, arrays: dict[str, np.ndarray], carry: bool) -> None:
+def check_checkpoint(sim, writers: list, path: Path, meta: dict, arrays: dict[str, np.ndarray], carry: bool) -> None:
     """Every array the restart will read from ``arrays`` into ``sim``: present, of this model's
-    dtype and shape, finite where a state cannot be otherwise; the outputs it appends to there.
+    dtype and shape, finite where a state cannot be otherwise; the outputs it appends to there
+    (``writers``: the run's output files).
     ``carry``: another deck's final state, whose fields this model shares are taken."""
     comm = sim.comm
     n, total, bonds = sim.num_owned, sim.num_global, sim.num_bonds_global
@@ -256,7 +257,7 @@ def check_checkpoint(sim, path: Path, meta: dict, arrays: dict[str, np.ndarray],
         array("contact/s", (total,) + tuple(c.s.shape[1:]), np.dtype(np.float64), True)
         if "contact/y_build" in arrays:
             array("contact/y_build", (total, 3), np.dtype(np.float64), True)
-    check_outputs(sim, path, meta)
+    check_outputs(sim, writers, path, meta)
 
 
 def _check_bond_keys(sim, path: Path, saved: np.ndarray) -> None:
@@ -271,10 +272,9 @@ def _check_bond_keys(sim, path: Path, saved: np.ndarray) -> None:
         raise refusal(path, "its bonds are not this model's", "restart with the deck and mesh that wrote it")
 
 
-def check_outputs(sim, path: Path, meta: dict) -> None:
-    """The output files a restart appends to: the deck's sections in the checkpoint's order and,
-    on rank 0, a file holding the frames written before the checkpoint."""
-    writers = sim.outputs.writers
+def check_outputs(sim, writers: list, path: Path, meta: dict) -> None:
+    """The output files a restart appends to (``writers``): the deck's sections in the
+    checkpoint's order and, on rank 0, a file holding the frames written before the checkpoint."""
     if len(meta["writers"]) != len(writers):
         raise refusal(path, "its outputs differ from this deck's", "restart with the deck that wrote it")
     for w, state in zip(writers, meta["writers"]):

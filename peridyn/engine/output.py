@@ -67,7 +67,8 @@ class Variable:
 
 
 class OutputManager:
-    """The computes and writers of all Output sections."""
+    """What the Output sections compute: their variables and the computes behind them (the
+    files they write are a run's :class:`OutputFiles`)."""
 
     def __init__(self, sim: "Simulation") -> None:
         self.sim = sim
@@ -136,13 +137,13 @@ class OutputManager:
             for p in problems:
                 errors.append(InputError(p, file=deck.file, path=entry.path))
         raise_collected(errors)
-        self.writers = [OutputWriter(sim, self, out) for out in deck.outputs]
-        seen: dict[str, OutputWriter] = {}
-        for w in self.writers:
-            first = seen.setdefault(w.path.name, w)
-            if first is not w:
-                errors.append(InputError(f"writes the same file as {first.entry.section!r} ({w.path.name})", file=deck.file,
-                                         path=w.entry.path + ("Output Filename",), fix="give each output section its own Output Filename"))
+        seen: dict[str, OutputEntry] = {}
+        for out in deck.outputs:
+            name = self.file_name(out)
+            first = seen.setdefault(name, out)
+            if first is not out:
+                errors.append(InputError(f"writes the same file as {first.section!r} ({name})", file=deck.file,
+                                         path=out.path + ("Output Filename",), fix="give each output section its own Output Filename"))
         raise_collected(errors)
 
     def _unknown_variable(self, name: str, path, material_fields, labels) -> InputError:
@@ -194,6 +195,13 @@ class OutputManager:
                 names.append(name)
         return names
 
+    def file_name(self, entry: "OutputEntry") -> str:
+        """The file an Output section writes: ``NAME.h`` when all its variables are global,
+        else the Exodus ``NAME.e``."""
+        names = dict.fromkeys(entry.variables)
+        global_only = bool(names) and all(self.variables[n].kind == "global" for n in names)
+        return f"{entry.filename}{'.h' if global_only else '.e'}"
+
     def field_specs(self) -> list[FieldSpec]:
         """Fields the outputs need allocated."""
         return [v.spec for v in self.variables.values() if v.spec.relation is not Relation.BOND]
@@ -232,6 +240,18 @@ class OutputManager:
         for obj in self.computes.values():
             if id(obj) in wanted:
                 obj.compute(self.sim)
+
+
+
+class OutputFiles:
+    """The output files of one run of ``sim``: a writer per ``Output`` section of its deck, in
+    deck order, in ``sim.output_dir``; a file is created at its first frame. ``write=False``
+    (``peridyn check``'s run, a harness that reads the fields itself): no writer, nothing is
+    written. The file names were checked with the deck's outputs (``OutputManager.build``)."""
+
+    def __init__(self, sim: "Simulation", *, write: bool = True) -> None:
+        manager = sim.outputs
+        self.writers = [OutputWriter(sim, manager, out) for out in sim.deck.outputs] if write else []
 
     def write(self, t: float) -> None:
         for w in self.writers:
@@ -313,8 +333,7 @@ class OutputWriter:
         self.names = list(dict.fromkeys(entry.variables))  # a name listed twice is written once
         self.vars = [manager.variables[n] for n in self.names]
         self.global_only = bool(self.vars) and all(v.kind == "global" for v in self.vars)
-        suffix = ".h" if self.global_only else ".e"
-        self.path = sim.output_dir / f"{entry.filename}{suffix}"
+        self.path = sim.output_dir / manager.file_name(entry)
         self._writer = None
         self.frames = 0
         #: a restarted run: the frames of ``partial_path`` kept, the next ones appended (peridyn.engine.restart)

@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..core.errors import InputError, raise_collected
+from ..core.services import OutputFiles
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..deck.model import Deck
@@ -196,14 +197,14 @@ def _writable_folder(folder: Path) -> str | None:
     return None
 
 
-def check_run_paths(sim) -> None:
+def check_run_paths(sim, files: OutputFiles) -> None:
     """InputError for a file the run will write or rename that cannot be: a folder (or anything
     but a file) at ``NAME.e``, ``NAME.partial.e`` (``.h``), ``Interfaces.e`` or a checkpoint's
     name; a Restart folder that is a file, under one or cannot be written. Called after the
     set-up, before any step (rank 0: the rank that writes)."""
     deck = sim.deck
     errors: list[InputError] = []
-    for w in sim.outputs.writers:
+    for w in files.writers:
         for path in (w.path, w.partial_path):
             what = _not_a_file(path)
             if what:

@@ -40,6 +40,7 @@ import numpy as np
 
 from ..core.errors import InputError, OutputWriteError, PeridynError
 from ..core.fields import Relation, Temporal
+from ..core.services import OutputFiles
 from ..core.state import SolverState
 from .checkpoint_check import FORMAT, bond_keys as _bond_keys
 
@@ -99,11 +100,13 @@ def _json_default(value: Any) -> Any:
 
 class Checkpoints:
     """What a run does about checkpoints: writes them (a deck with a ``Restart`` section), and
-    continues from one (``--restart``). Set as ``sim.restart``; the solvers call
-    :meth:`begin_section`, :meth:`resume`, :meth:`after_step` and :meth:`end_section`."""
+    continues from one (``--restart``), for the run of ``sim`` whose output files are
+    ``files``. The run's ``checkpoints`` service: the solvers call :meth:`begin_section`,
+    :meth:`resume`, :meth:`after_step` and :meth:`end_section`."""
 
-    def __init__(self, sim, params=None) -> None:
+    def __init__(self, sim, files: OutputFiles, params=None) -> None:
         self.sim = sim
+        self.files = files
         self.params = params  #: RestartParams, or None: no checkpoint is written
         self.folder = sim.output_dir / (params.folder if params is not None else "restart")
         self.stem = Path(sim.deck.file).stem
@@ -320,7 +323,7 @@ class Checkpoints:
             "nonlinear_iterations": int(state.nonlinear_iterations),
             "fields": kinds,
             "two_step": sorted(nm for nm in kinds if store.specs[nm].temporal is Temporal.TWO_STEP),
-            "writers": [{"section": w.entry.section, "count": int(w.count), "frames": int(w.frames)} for w in sim.outputs.writers],
+            "writers": [{"section": w.entry.section, "count": int(w.count), "frames": int(w.frames)} for w in self.files.writers],
             "monitor": ({k: v for k, v in vars(monitor).items() if k not in _MONITOR_DERIVED} if monitor is not None else None),
             "contact": contact,
             "final_time": float(sim.deck.solvers[-1].params.final_time) if sim.deck.solvers else None,
@@ -338,7 +341,7 @@ class Checkpoints:
         def checked() -> tuple[dict, dict, bool]:
             meta, arrays = read_checkpoint(path)
             carry = self._check(path, meta)
-            check_checkpoint(self.sim, path, meta, arrays, carry)
+            check_checkpoint(self.sim, self.files.writers, path, meta, arrays, carry)
             return meta, arrays, carry
 
         meta, data, carry = agree(self.sim.comm, checked)
@@ -441,7 +444,7 @@ class Checkpoints:
         from ..io.exodus_writer import keep_steps
 
         sim = self.sim
-        for w, state in zip(sim.outputs.writers, meta["writers"]):  # checked by checkpoint_check.check_outputs
+        for w, state in zip(self.files.writers, meta["writers"]):  # checked by checkpoint_check.check_outputs
             w.count, w.frames = int(state["count"]), int(state["frames"])
             if not w.frames:
                 continue  # the file is (re)written from its start at the next frame
@@ -480,14 +483,15 @@ class Checkpoints:
 
 
 # ------------------------------------------------------------------------------------------------
-def attach(sim, restart_arg: str | None, state: SolverState) -> Checkpoints | None:
-    """The checkpoints (the caller sets ``sim.restart``) of a deck with a Restart section or a run given ``--restart``
-    (``restart_arg``: a checkpoint path, or "latest"); load the checkpoint into the model and
-    the run's solver state ``state``. Collective only through the contact pair rebuild."""
+def attach(sim, files: OutputFiles, restart_arg: str | None, state: SolverState) -> Checkpoints | None:
+    """The checkpoints (the run's ``checkpoints`` service) of a deck with a Restart section or a
+    run given ``--restart`` (``restart_arg``: a checkpoint path, or "latest") whose output files
+    are ``files``; load the checkpoint into the model, the files' counters and the run's solver
+    state ``state``. Collective only through the contact pair rebuild."""
     params = sim.deck.restart
     if params is None and restart_arg is None:
         return None
-    cp = Checkpoints(sim, params)
+    cp = Checkpoints(sim, files, params)
     if restart_arg is None:  # Peridigm: a deck with a Restart section continues the state a previous deck left
         restart_arg = peridigm_continuation(cp.folder, sim.deck, cp.stem)
         if restart_arg is not None:

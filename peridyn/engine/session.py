@@ -1,14 +1,17 @@
 """One run of a deck: the run services around a :class:`~peridyn.engine.simulation.Simulation`.
 
 A :class:`RunSession` owns what a run has besides its model: the output folder and its locks,
-the checkpoints and signal handlers of a deck with a ``Restart`` section (or ``--restart``), the
-deck's solver sections in order, and how the outputs close on every way a run ends. ``peridyn
+the output files, the checkpoints and signal handlers of a deck with a ``Restart`` section (or
+``--restart``) and the progress setting (the :class:`~peridyn.engine.run_services.RunServices`
+it hands every solver section), the deck's solver sections in order, and how the outputs close
+on every way a run ends. ``peridyn
 run`` (serially and under MPI) and the Python API (:class:`peridyn.api.Model`) both drive their
 runs through it, so the lifecycle is written once:
 
 1. open: the output folder made, the deck loaded and its output names checked, the outputs
-   locked (rank 0: the only rank that writes), the simulation set up, its paths checked, the
-   set-up logged, checkpoints attached (a checkpoint loaded) and SIGTERM/SIGINT caught;
+   locked (rank 0: the only rank that writes), the simulation set up, its output files made and
+   their paths checked, the set-up logged, checkpoints attached (a checkpoint loaded) and
+   SIGTERM/SIGINT caught;
 2. the solver sections in deck order (:func:`run_sections`; the API steps them itself);
 3. close: outputs closed complete (under their final names) when the run ended or stopped as
    unstable on every rank, else incomplete; signals restored; locks released; on success the
@@ -31,6 +34,7 @@ from ..core.state import SolverState
 from ..deck.model import Deck, load_deck
 from ..parallel.comm import SerialComm
 from .output_paths import check_output_names, check_run_paths, lock_outputs, prepare_output_dir, release_locks
+from .run_services import RunServices
 from .simulation import Simulation
 from .summary import log_setup, log_summary
 
@@ -61,28 +65,34 @@ def agree_on_input(comm, action: Callable[[], T]) -> T:
     return result  # type: ignore[return-value]
 
 
-def run_sections(sim: Simulation, state: SolverState | None = None) -> SolverState:
-    """Run the deck's solver sections in deck order, each from the solver state the one before
-    it left (the first from ``state``: a checkpoint's, or a fresh one), skipping those a loaded
-    checkpoint has done (``sim.restart``) and writing the end-of-section checkpoints; returns
-    the last section's state. The caller closes the outputs."""
+def run_sections(sim: Simulation, state: SolverState | None = None, run: RunServices | None = None) -> SolverState:
+    """Run the deck's solver sections in deck order with the run's services ``run`` (None: as
+    :func:`run_section`), each from the solver state the one
+    before it left (the first from ``state``: a checkpoint's, or a fresh one), skipping those a
+    loaded checkpoint has done (``run.checkpoints``) and writing the end-of-section
+    checkpoints; returns the last section's state. The caller closes the output files."""
     state = state if state is not None else SolverState()
-    restart = sim.restart
+    run = run if run is not None else RunServices.of(sim)
+    checkpoints = run.checkpoints
     for k, (solver, _, _) in enumerate(sim.plan_solvers()):
-        if restart is not None and not restart.begin_section(k, solver):
+        if checkpoints is not None and not checkpoints.begin_section(k, solver):
             continue  # done before the checkpoint this run continues from
-        state = run_section(sim, solver, state)
-        if restart is not None:
-            restart.end_section(k, solver, state)
+        state = run_section(sim, solver, state, run)
+        if checkpoints is not None:
+            checkpoints.end_section(k, solver, state)
     return state
 
 
-def run_section(sim: Simulation, solver: Solver, state: SolverState | None = None) -> SolverState:
+def run_section(sim: Simulation, solver: Solver, state: SolverState | None = None, run: RunServices | None = None) -> SolverState:
     """Run one solver section from ``state`` (None: a fresh one), the simulation's clock reading
-    it; returns the state it leaves."""
+    it, with the run's services ``run`` (None: the deck's output files, written as the
+    simulation's ``write_files`` says and left open; no checkpoint, no progress: a test or
+    harness that closes its files passes its own, :meth:`RunServices.of`); returns the state it
+    leaves."""
     state = state if state is not None else SolverState()
+    run = run if run is not None else RunServices.of(sim)
     sim.show_clock(state)
-    state = solver.run(sim, state)
+    state = solver.run(sim, state, run)
     sim.show_clock(state)
     return state
 
@@ -119,6 +129,8 @@ class RunSession:
         self.option = option
         self.deck: Deck | None = deck if isinstance(deck, Deck) else None
         self.sim: Simulation | None = None
+        #: the output files, checkpoints and progress every section is handed (made by ``open``)
+        self.services: RunServices | None = None
         #: the solver state handed to the first section (a checkpoint's when the run continues one)
         self.state = SolverState()
         self._locks: list = []
@@ -141,19 +153,18 @@ class RunSession:
                 # a second run of the deck in this folder is refused here
                 self._locks = agree_on_input(comm, lambda: lock_outputs(deck, self.output_dir) if rank0 else [])
             self.sim = sim = agree_on_input(comm, lambda: Simulation(
-                deck, comm=comm, output_dir=self.output_dir, progress=self.progress and rank0, write_files=self.write_files,
-                backend=self.backend, device=self.device))
+                deck, comm=comm, output_dir=self.output_dir, write_files=self.write_files, backend=self.backend, device=self.device))
             sim.show_clock(self.state)
-            if not self.write_files:  # the engine's write_files keeps set-up from writing; the run writes nothing either
-                sim.outputs.writers = []
-            else:
-                agree_on_input(comm, lambda: check_run_paths(sim) if rank0 else None)
+            # the engine's write_files keeps set-up from writing; the run writes nothing either
+            self.services = services = RunServices.of(sim, write=self.write_files, progress=self.progress and rank0)
+            if self.write_files:
+                agree_on_input(comm, lambda: check_run_paths(sim, services.files) if rank0 else None)
             log_setup(sim)
             if self.write_files and (deck.restart is not None or self.restart_from is not None):
                 from .restart import attach
 
-                sim.restart = agree_on_input(comm, lambda: attach(sim, self.restart_from, self.state))
-                sim.restart.install_signals()
+                services.checkpoints = checkpoints = agree_on_input(comm, lambda: attach(sim, services.files, self.restart_from, self.state))
+                checkpoints.install_signals()
         except BaseException:
             self.close(complete=False)
             raise
@@ -164,8 +175,9 @@ class RunSession:
         """Open (when not yet), run every solver section, and close: complete on success, as
         :func:`keeps_output` says on an error (which propagates)."""
         sim = self.sim if self.sim is not None else self.open()
+        assert self.services is not None  # made by open
         try:
-            self.state = run_sections(sim, self.state)
+            self.state = run_sections(sim, self.state, self.services)
         except BaseException as exc:
             self.close(complete=keeps_output(exc, self.comm.size))
             raise
@@ -178,19 +190,19 @@ class RunSession:
         if self._closed:
             return
         self._closed = True
-        sim = self.sim
+        sim, services = self.sim, self.services
         try:
-            if sim is not None:
+            if services is not None:
                 try:
-                    sim.outputs.close(complete=complete)
+                    services.close(complete=complete)
                 finally:
-                    if sim.restart is not None:
-                        sim.restart.remove_signals()
+                    if services.checkpoints is not None:
+                        services.checkpoints.remove_signals()
         finally:
             release_locks(self._locks)
             self._locks = []
-        if summary and sim is not None:
-            log_summary(sim, _time.perf_counter() - self._wall0)
+        if summary and sim is not None and services is not None:
+            log_summary(sim, services.files, _time.perf_counter() - self._wall0)
 
     @property
     def closed(self) -> bool:

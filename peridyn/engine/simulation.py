@@ -45,13 +45,15 @@ log = logging.getLogger("peridyn.engine")
 class Simulation:
     """A model built from a deck, ready for solvers: points, blocks, bonds, node sets, fields and
     conditions (what solvers, computes and models may read is the contract
-    :class:`peridyn.core.interfaces.Simulation`); ``state`` holds what the solvers write. The run
-    services around it (output folder, locks, checkpoints, signals) are the run session's
-    (:mod:`peridyn.engine.session`); its force evaluation is :mod:`peridyn.engine.forces`.
+    :class:`peridyn.core.interfaces.Simulation`). What solvers write is the solver state they are
+    handed (:class:`peridyn.core.state.SolverState`); the run services around it (output files,
+    folder and locks, checkpoints, signals, progress) are the run session's
+    (:mod:`peridyn.engine.session`, :mod:`peridyn.engine.run_services`); its force evaluation is
+    :mod:`peridyn.engine.forces`.
     """
 
-    def __init__(self, deck: Deck, *, comm=None, output_dir: str | Path | None = None, progress: bool = True,
-                 write_files: bool = True, backend: str | None = None, device: str | None = None) -> None:
+    def __init__(self, deck: Deck, *, comm=None, output_dir: str | Path | None = None, write_files: bool = True,
+                 backend: str | None = None, device: str | None = None) -> None:
         self.deck = deck
         #: "cpu", or "gpu": explicit solvers run on one GPU (``--device``, else the solver's ``Device``)
         self._device_backend = None
@@ -68,7 +70,6 @@ class Simulation:
         self.output_dir = Path(output_dir) if output_dir is not None else Path.cwd()
         #: False for ``peridyn check``: set-up creates no file (no Interfaces.e)
         self.write_files = write_files
-        self.progress = progress
         #: the time the fields are at: the running section's solver state (read-only; ``show_clock``)
         self.clock: Clock = SolverState()
         self.time_step = 0.0  #: the running solver's step (T), which rate-form models read
@@ -77,8 +78,6 @@ class Simulation:
         self.contact = None
         self.interfaces = None
         self.element_nodes: np.ndarray | None = None
-        #: checkpoints and restarts (:class:`peridyn.engine.restart.Checkpoints`; None: neither)
-        self.restart = None
         self.timers: dict[str, float] = {}
         self.stats: dict[str, Any] = {}
         t0 = _time.perf_counter()
@@ -544,9 +543,6 @@ class Simulation:
     def load_data(self, t: float) -> None:
         if self.data_loader is not None:
             self.data_loader.load(t)
-
-    def write_output(self, t: float) -> None:
-        self.outputs.write(t)
 
     def advance(self) -> None:
         """End of a completed step: swap N and NP1 of two-step fields."""

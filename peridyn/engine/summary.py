@@ -5,6 +5,8 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
+from ..core.services import OutputFiles
+
 log = logging.getLogger("peridyn")
 
 
@@ -22,9 +24,9 @@ def log_setup(sim) -> None:
     )
 
 
-def log_summary(sim, wall: float) -> None:
+def log_summary(sim, files: OutputFiles, wall: float) -> None:
     """Each solver section's steps, rate, energy balance and contact statistics, the ranks'
-    balance (collective under MPI), and the files written; ``wall``: the run's seconds."""
+    balance (collective under MPI), and the output ``files`` written; ``wall``: the run's seconds."""
     for st in sim.stats.get("solvers", []):
         steps = st.get("steps", 0)
         rate = st["bond_evaluations"] / st["wall"] if st.get("wall") else 0.0
@@ -57,8 +59,8 @@ def log_summary(sim, wall: float) -> None:
             _log_contact(c, steps)
     if sim.comm.size > 1:
         _log_parallel(sim)
-    files = [str(w.path.name) for w in sim.outputs.writers if w.frames]
-    log.info("done in %.2f s; wrote %s", wall, ", ".join(files) if files else "no output")
+    written = [str(w.path.name) for w in files.writers if w.frames]
+    log.info("done in %.2f s; wrote %s", wall, ", ".join(written) if written else "no output")
 
 
 def _log_contact(c: dict, steps: int) -> None:

@@ -102,7 +102,7 @@ def build_simulation(tree: dict[str, Any], *, directory: str | Path = ".", regis
     directory = Path(directory)
     source = DeckSource(typed_tree(tree), directory / "<memory>.yaml", "yaml", {})
     deck = parse_deck(source, registry)
-    return Simulation(deck, output_dir=output_dir or directory, progress=False, backend=backend)
+    return Simulation(deck, output_dir=output_dir or directory, backend=backend)
 
 
 def node_set_ids(tree: dict[str, Any], where, *, directory: str | Path = ".") -> str:

@@ -128,7 +128,7 @@ def test_fragmenting_cylinder_counts_in_the_header(capsys, monkeypatch):
 def test_fragmenting_cylinder_initial_velocity_is_what_its_comment_says(tmp_path):
     """Outward radial velocity peaking at mid-length (200 m/s there, 150 m/s at the ends), an axial
     stretch (+-100 m/s at the ends) and noise of amplitude 5 m/s."""
-    sim = Simulation(load_deck(EXAMPLES / "fragmenting_cylinder.yaml"), output_dir=tmp_path, progress=False)
+    sim = Simulation(load_deck(EXAMPLES / "fragmenting_cylinder.yaml"), output_dir=tmp_path)
     x = sim.fields["Model_Coordinates"][: sim.num_owned]
     v = sim.fields["Velocity"][: sim.num_owned]
     s = x[:, 2] / 0.05 - 1.0
@@ -153,7 +153,7 @@ def test_fragmenting_cylinder_scaled_as_its_header_says_moves_every_point(tmp_pa
     deck = tmp_path / "fragmenting_cylinder.yaml"
     deck.write_text(deck_text.replace("Number Points Radius: 3", f"Number Points Radius: {radius}")
                     .replace("Horizon: 0.0050 ", f"Horizon: {horizon} "))
-    sim = Simulation(load_deck(deck), output_dir=tmp_path, progress=False)
+    sim = Simulation(load_deck(deck), output_dir=tmp_path)
     assert sim.num_global == sim.num_owned == points
     speed = np.linalg.norm(sim.fields["Velocity"][: sim.num_owned], axis=1)
     assert speed.min() > 100.0, (np.count_nonzero(speed < 100.0), speed.min())

@@ -269,7 +269,7 @@ CHECK = textwrap.dedent(
     tree = json.loads(Path(sys.argv[1]).read_text())
     here = Path(sys.argv[1]).parent
     comm = get_comm()
-    sim = Simulation(parse_deck(DeckSource(copy.deepcopy(tree), here / "deck.yaml", "yaml", {})), comm=comm, output_dir=here, progress=False)
+    sim = Simulation(parse_deck(DeckSource(copy.deepcopy(tree), here / "deck.yaml", "yaml", {})), comm=comm, output_dir=here)
     x = sim.fields["Model_Coordinates"]
     sim.fields["Coordinates"][:] = x + 1.0e-3 * np.stack(
         [np.sin(x[:, 1] + 2 * x[:, 2]), np.cos(x[:, 0] - x[:, 2]), np.sin(0.7 * x[:, 0] * x[:, 1])], axis=1)

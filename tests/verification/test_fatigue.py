@@ -35,6 +35,7 @@ import math
 import numpy as np
 import pytest
 
+from peridyn.engine.run_services import RunServices
 from peridyn.io.exodus_reader import read_results
 from peridyn.testing.harness import build_simulation, node_set_ids
 from peridyn.engine.session import run_sections
@@ -67,8 +68,9 @@ def bar_deck(eps: float, dN: float, steps: int, fatigue_limit: float = 0.0) -> d
 
 def run(tree: dict, folder) -> dict:
     sim = build_simulation(tree, output_dir=folder)
-    run_sections(sim)
-    sim.outputs.close(complete=True)
+    run = RunServices.of(sim)
+    run_sections(sim, run=run)
+    run.close(complete=True)
     return read_results(folder / f"{tree['Output']['Output Filename']}.e")
 
 

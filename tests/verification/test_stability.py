@@ -5,6 +5,7 @@ import logging
 import numpy as np
 import pytest
 
+from peridyn.engine.run_services import RunServices
 from peridyn.core.errors import InstabilityError
 from peridyn.solvers.explicit.verlet import Verlet, VerletSection
 from peridyn.testing import build_simulation, cube_deck
@@ -13,12 +14,12 @@ from peridyn.engine.session import run_section
 ELASTIC = {"Material Model": "Elastic", "Density": 7800.0, "Bulk Modulus": 130.0e9, "Shear Modulus": 78.0e9}
 
 
-def verlet(sim, final_time=None, steps=None, **method):
+def verlet(sim, final_time=None, steps=None, run=None, **method):
     if steps is not None:
         dt = sim.critical_time_step() * method.get("Safety Factor", 1.0) if "Fixed dt" not in method else method["Fixed dt"] * method.get("Safety Factor", 1.0)
         final_time = steps * dt * (1 + 1e-9)
     section = VerletSection.model_validate({"Initial Time": 0.0, "Final Time": final_time, "Verlet": method})
-    run_section(sim, Verlet(section))
+    run_section(sim, Verlet(section), run=run)
     return sim.stats["solvers"][-1]
 
 
@@ -60,9 +61,10 @@ def test_time_step_three_times_the_estimate_stops_within_50_steps(tmp_path, unme
     extra = {"Output": {"Output Filename": "unstable", "Output Frequency": 5, "Output Variables": {"Displacement": True, "Velocity": True}}}
     sim = build_simulation(cube_deck(ELASTIC, n=6, spacing=1e-3, extra=extra), output_dir=tmp_path)
     kick_face(sim)
+    run = RunServices.of(sim)
     with pytest.raises(InstabilityError) as info:
-        verlet(sim, final_time=1.0, **{"Safety Factor": 3.0})
-    sim.outputs.close()
+        verlet(sim, final_time=1.0, run=run, **{"Safety Factor": 3.0})
+    run.close()
     msg = str(info.value)
     step = int(msg.split("at step ")[1].split()[0])
     assert step <= 50, msg

@@ -18,6 +18,7 @@ from ...core.errors import InputError, InstabilityError
 from ...core.interfaces import Solver
 from ...core.params import ModelParams
 from ...core.placement import Placement
+from ...core.services import RunServices
 from ...core.state import SolverState
 from ...kernels.scatter import apply_body_forces, apply_kinematic
 from ..monitors.energy import EnergyMonitor, judge_energy
@@ -144,8 +145,8 @@ class Verlet(Solver):
         return count_steps(self.params.initial_time, self.params.final_time, dt, source=source, file=sim.deck.file,
                            path=(self.section, "Verlet"), hint=sim.unit_slip_hint)
 
-    def run(self, sim, state: SolverState) -> SolverState:
-        for _ in self.steps(sim, state):
+    def run(self, sim, state: SolverState, run: RunServices) -> SolverState:
+        for _ in self.steps(sim, state, run):
             pass
         return state
 
@@ -159,11 +160,12 @@ class Verlet(Solver):
 
         return DevicePlacement(sim, sim.device_backend, state)
 
-    def steps(self, sim, state: SolverState, *, host_each_step: bool = False):
-        """The run from ``state`` as a generator, on every target: yields the step number after
-        step 0 (the initial force evaluation and output at t_initial) and after each time step;
-        the run's statistics and energy verdict follow the last one; ``state`` is left at the
-        last step. ``run`` consumes it whole; ``peridyn.api.Model`` advances it step by step
+    def steps(self, sim, state: SolverState, run: RunServices, *, host_each_step: bool = False):
+        """The run from ``state``, with the run's services ``run`` (frames, checkpoints,
+        progress), as a generator, on every target: yields the step number after step 0 (the
+        initial force evaluation and output at t_initial) and after each time step; the run's
+        statistics and energy verdict follow the last one; ``state`` is left at the last step.
+        :meth:`run` consumes it whole; ``peridyn.api.Model`` advances it step by step
         (the same operations in the same order), with ``host_each_step`` (a GPU run's fields
         copied to the host at every yield)."""
         s = self.params
@@ -179,7 +181,7 @@ class Verlet(Solver):
         if state.acceleration is None:
             state.acceleration = np.zeros((n, 3))
         sim.set_time_step(dt)
-        restart = sim.restart
+        restart = run.checkpoints
         # a run continued from a checkpoint: (the last step done, the energy monitor) there
         resumed = restart.resume(self, dt) if restart is not None else None
         setup0 = _time.perf_counter()
@@ -204,7 +206,7 @@ class Verlet(Solver):
                               where.acceleration, v, False))
             where.load_data(t)
             where.to_host()
-            sim.write_output(t)
+            run.write_output(t)
             limit = self._measure(sim, dt, dt_crit, nsteps)
             if math.isfinite(limit):
                 log.info("%s: stable limit measured on the model: at most %.4g (%.3g x the estimate)", self.section, limit, limit / dt_crit)
@@ -221,9 +223,9 @@ class Verlet(Solver):
         du = where.zeros((n, 3))
         setup = _time.perf_counter() - setup0
         yield first - 1
-        progress = Progress(nsteps, f"{self.section}", enabled=sim.progress)
+        progress = Progress(nsteps, f"{self.section}", enabled=run.progress)
         watch = RangeWatch(sim, nsteps, where)
-        writers = sim.outputs
+        files = run.files
         wall0 = _time.perf_counter()
         force_time = 0.0
         try:
@@ -253,9 +255,9 @@ class Verlet(Solver):
                 where.load_data(t)
                 monitor.check(step, t)
                 watch.after_step(step)
-                if host_each_step or writers.due_next():
+                if host_each_step or files.due_next():
                     where.to_host()
-                sim.write_output(t)
+                run.write_output(t)
                 where.advance()
                 progress.update(step)
                 if restart is not None:

@@ -29,6 +29,7 @@ import time as _time
 import numpy as np
 
 from ...kernels.gathers import gather_bond_scalar_kernel
+from ...core.services import RunServices
 from ...core.state import SolverState
 from ...core.errors import InputError, InstabilityError
 from ..linalg.coupled_tangent import CoupledTangent
@@ -152,7 +153,7 @@ class CoupledProblem:
 class CoupledQuasiStaticRun:
     """One coupled QuasiStatic solver run (see module docstring)."""
 
-    def __init__(self, solver, sim, state: SolverState) -> None:
+    def __init__(self, solver, sim, state: SolverState, services: RunServices) -> None:
         from .load_steps import DAMPED_TANGENT_INTERVAL, PURE_NEWTON_STEPS
 
         self.pure_newton_steps = PURE_NEWTON_STEPS
@@ -160,6 +161,7 @@ class CoupledQuasiStaticRun:
         self.solver = solver
         self.sim = sim
         self.state = state
+        self.services = services
         self.p = solver.params
         self.q = solver.params.quasi_static
         self.section = solver.section
@@ -346,7 +348,7 @@ class CoupledQuasiStaticRun:
         try:
             sim.apply_kinematic(t_cur, t_prev, self.state)
             sim.apply_body_forces(t_cur)
-            sim.write_output(t_cur)
+            self.services.write_output(t_cur)
             log.info("%s: QuasiStatic with fluid pressure, %d load steps from t = %.6g to %.6g, %d unknowns, tangent %d nonzeros",
                      self.section, len(times) - 1, times[0], times[-1], 4 * sim.num_global, sim.comm.allreduce_sum(int(self.problem.tangent.nnz)))
             adaptive = q.adaptive
@@ -390,7 +392,7 @@ class CoupledQuasiStaticRun:
                 if retry:
                     halve_load_step(times, step, t_prev, self.dt)
                     if adaptive.adaptive_output_frequency:
-                        multiply_output_frequency(sim.outputs.writers, 2.0)
+                        multiply_output_frequency(self.services.files.writers, 2.0)
                     continue
                 if adaptive is not None and adaptive.reduce_all_remaining and cut_in_step:
                     reduce_remaining_load_steps(times, step, t_cur, self.dt, t_final)
@@ -400,7 +402,7 @@ class CoupledQuasiStaticRun:
                 self.pU[:n] += self.dp[:n]
                 predictor[:, :3] = self.v[:n]
                 predictor[:, 3] = self.pV[:n]
-                sim.write_output(t_cur)
+                self.services.write_output(t_cur)
                 sim.advance()
                 completed += 1
                 step += 1

@@ -66,6 +66,7 @@ import numpy as np
 from numba import njit, prange
 from pydantic import Field, field_validator, model_validator
 
+from ...core.services import RunServices
 from ...core.state import SolverState
 from ...core.errors import InputError, InstabilityError
 from ...core.interfaces import Solver
@@ -419,18 +420,19 @@ class ImplicitDiffusion(Solver):
     def planned_steps(self, sim) -> int | None:
         return planned_load_steps(self.params, self.params.implicit_diffusion)
 
-    def run(self, sim, state: SolverState) -> SolverState:
+    def run(self, sim, state: SolverState, run: RunServices) -> SolverState:
         with threads_for(sim):
-            ImplicitDiffusionRun(self, sim, state).run()
+            ImplicitDiffusionRun(self, sim, state, run).run()
         return state
 
 
 class ImplicitDiffusionRun:
     """State of one ImplicitDiffusion solver run."""
 
-    def __init__(self, solver: ImplicitDiffusion, sim, state: SolverState) -> None:
+    def __init__(self, solver: ImplicitDiffusion, sim, state: SolverState, services: RunServices) -> None:
         self.sim = sim
         self.state = state
+        self.services = services
         self.section = solver.section
         self.p = solver.params
         self.q = solver.params.implicit_diffusion
@@ -502,7 +504,7 @@ class ImplicitDiffusionRun:
         for c in sim.conditions:  # Peridigm applies the initial conditions again, after the BCs
             if c.stage == "initial":
                 c.apply_initial(sim)
-        sim.write_output(t_cur)
+        self.services.write_output(t_cur)
         log.info("%s: ImplicitDiffusion, %d load steps, %d unknowns", self.section, len(times) - 1, sim.num_global)
         attempts = []
         steps_done = 0
@@ -550,7 +552,7 @@ class ImplicitDiffusionRun:
                         + "; raise 'Maximum Solver Iterations' or use 'Linear Solver: Direct'"
                     )
             log.info("%s: load step %d (t = %.6g): %d iterations, residual %.4g (tolerance %.4g)", self.section, step, t_cur, it - 1, res, tol)
-            sim.write_output(t_cur)
+            self.services.write_output(t_cur)
             sim.advance()
             steps_done += 1
         self._stats(wall0, steps_done, attempts)

@@ -35,6 +35,7 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from ...core.interfaces import Solver
+from ...core.services import RunServices
 from ...core.state import SolverState
 from ...core.params import ModelParams
 from ..section import SolverSection, count_steps
@@ -91,12 +92,12 @@ class Implicit(Solver):
         return count_steps(p.initial_time, p.final_time, p.implicit.fixed_dt, source="'Fixed dt'", file=sim.deck.file,
                            path=(self.section, "Implicit"))
 
-    def run(self, sim, state: SolverState) -> SolverState:
+    def run(self, sim, state: SolverState, run: RunServices) -> SolverState:
         with threads_for(sim):
-            self._run(sim, state)
+            self._run(sim, state, run)
         return state
 
-    def _run(self, sim, state: SolverState) -> None:
+    def _run(self, sim, state: SolverState, run: RunServices) -> None:
         p = self.params
         ip = p.implicit
         wall0 = _time.perf_counter()
@@ -133,7 +134,7 @@ class Implicit(Solver):
         state.time_prev = state.time = t_cur
         sim.apply_kinematic(t_cur, t_prev, state)
         sim.apply_body_forces(t_cur)
-        sim.write_output(t_cur)
+        run.write_output(t_cur)
         log.info("%s: Implicit (Newmark beta = %g, gamma = %g), dt = %.6g, %d steps, %d unknowns", self.section, beta, gamma, dt, nsteps, 3 * sim.num_global)
 
         def residual() -> tuple[float, np.ndarray]:
@@ -149,7 +150,7 @@ class Implicit(Solver):
             return prob.norm2(rr), rr
 
         warned = 0
-        progress = Progress(nsteps, self.section, enabled=sim.progress)
+        progress = Progress(nsteps, self.section, enabled=run.progress)
         for step in range(nsteps):
             un = u[:n].copy()
             vn = v[:n].copy()
@@ -186,7 +187,7 @@ class Implicit(Solver):
             t_prev = t_cur
             t_cur = t0 + (step + 1) * dt
             state.time_prev, state.time = t_prev, t_cur
-            sim.write_output(t_cur)
+            run.write_output(t_cur)
             sim.advance()
             log.debug("%s: step %d of %d (t = %.6g): residual %.4g (tolerance %.4g) after %d iteration(s)", self.section, step + 1, nsteps,
                       t_cur, res, ip.absolute_tolerance, it, extra={"fields": {"event": "step", "section": self.section, "step": step + 1,

@@ -51,6 +51,7 @@ import time as _time
 
 import numpy as np
 
+from ...core.services import RunServices
 from ...core.state import SolverState
 from ...core.errors import ExitCode, PeridynError
 from ...core.interfaces import Solver
@@ -103,7 +104,7 @@ class NOXQuasiStatic(Solver):
             return "default"
         return "block diagonal" if params.block_tangent else "full"
 
-    def run(self, sim, state: SolverState) -> SolverState:
+    def run(self, sim, state: SolverState, run: RunServices) -> SolverState:
         p = self.params
         if p.peridigm_preconditioner is None and p.nox.direction.method == "Newton" and p.linear_params.jacobian_operator == "Matrix-Free":
             log.warning(
@@ -113,7 +114,7 @@ class NOXQuasiStatic(Solver):
                 self.section,
             )
         with threads_for(sim):
-            NOXRun(self, sim, state).run()
+            NOXRun(self, sim, state, run).run()
         return state
 
 
@@ -122,10 +123,11 @@ class NOXRun:
 
     LAMBDA = 1.0e-6  # NOX::Epetra::MatrixFree perturbation parameter
 
-    def __init__(self, solver: NOXQuasiStatic, sim, state: SolverState) -> None:
+    def __init__(self, solver: NOXQuasiStatic, sim, state: SolverState, services: RunServices) -> None:
         self.solver = solver
         self.sim = sim
         self.state = state
+        self.services = services
         self.p = solver.params
         self.q = solver.params.nox
         self.section = solver.section
@@ -523,7 +525,7 @@ class NOXRun:
         state.time_prev = state.time = t_cur
         sim.apply_kinematic(t_cur, t_prev, state)
         sim.apply_body_forces(t_cur)
-        sim.write_output(t_cur)
+        self.services.write_output(t_cur)
         log.info(
             "%s: NOXQuasiStatic (%s%s), %d load steps from t = %.6g to %.6g, %d unknowns",
             self.section, q.direction.method, ", Jacobian-free" if p.matrix_free else "", len(times) - 1, times[0], times[-1], 3 * sim.num_global,
@@ -532,7 +534,7 @@ class NOXRun:
         saved = state.delta_u
         state.delta_u = du
         steps = 0
-        self.progress = Progress(len(times) - 1, self.section, enabled=sim.progress, unit="load step")
+        self.progress = Progress(len(times) - 1, self.section, enabled=self.services.progress, unit="load step")
         try:
             for k in range(1, len(times)):
                 t_prev, t_cur = t_cur, times[k]
@@ -559,7 +561,7 @@ class NOXRun:
                 np.divide(sl, self.dt, out=self.v[:n])
                 self.v[:n] += self.v_bc
                 self.u[:n] += sl
-                sim.write_output(t_cur)
+                self.services.write_output(t_cur)
                 sim.advance()
                 steps += 1
                 niter, nF, tol = self.last_status

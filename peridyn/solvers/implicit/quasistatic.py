@@ -42,6 +42,7 @@ from typing import Literal
 import numpy as np
 from pydantic import Field, field_validator, model_validator
 
+from ...core.services import RunServices
 from ...core.state import SolverState
 from ...core.errors import InputError, InstabilityError
 from ...core.interfaces import Solver
@@ -178,12 +179,12 @@ class QuasiStatic(Solver):
     def reduction_path(self) -> tuple[str, ...]:
         return (self.section, "QuasiStatic", "Model Reduction")
 
-    def run(self, sim, state: SolverState) -> SolverState:
+    def run(self, sim, state: SolverState, run: RunServices) -> SolverState:
         with threads_for(sim):
             if sim.deck.multiphysics:  # 4 dofs per point (PERIDIGM_MODELS.md §7)
                 from .coupled import CoupledQuasiStaticRun
 
-                CoupledQuasiStaticRun(self, sim, state).run()
+                CoupledQuasiStaticRun(self, sim, state, run).run()
             else:
                 if self.params.solve_for_pressure or not self.params.solve_for_displacement:
                     from ...core.errors import InputError
@@ -192,7 +193,7 @@ class QuasiStatic(Solver):
                         "QuasiStatic solves for the displacement; the fluid pressure is an unknown only in a Multiphysics deck",
                         file=sim.deck.file, path=(self.section,), fix="set 'Multiphysics: 1' at the top level (and use Multiphysics materials), or remove the Solve For keys",
                     )
-                QuasiStaticRun(self, sim, state).run()
+                QuasiStaticRun(self, sim, state, run).run()
         return state
 
 
@@ -217,10 +218,11 @@ def fallback_verlet(solver: QuasiStatic, sim, t_start: float, t_final: float):
 class QuasiStaticRun:
     """State of one QuasiStatic solver run."""
 
-    def __init__(self, solver: QuasiStatic, sim, state: SolverState) -> None:
+    def __init__(self, solver: QuasiStatic, sim, state: SolverState, services: RunServices) -> None:
         self.solver = solver
         self.sim = sim
         self.state = state
+        self.services = services
         self.p = solver.params
         self.q = solver.params.quasi_static
         self.section = solver.section
@@ -373,11 +375,11 @@ class QuasiStaticRun:
         self.state.time_prev = self.state.time = t_cur
         sim.apply_kinematic(t_cur, t_prev, self.state)
         sim.apply_body_forces(t_cur)
-        sim.write_output(t_cur)
+        self.services.write_output(t_cur)
         nnz = sim.comm.allreduce_sum(int(self.problem.tangent.nnz))  # stored by all ranks (ghost rows included)
         log.info("%s: QuasiStatic, %d load steps from t = %.6g to %.6g, %d unknowns, tangent %d nonzeros",
                  self.section, len(times) - 1, times[0], times[-1], 3 * sim.num_global, nnz)
-        self.progress = Progress(len(times) - 1, self.section, enabled=sim.progress, unit="load step")
+        self.progress = Progress(len(times) - 1, self.section, enabled=self.services.progress, unit="load step")
 
         adaptive = q.adaptive
         t_final = times[-1]
@@ -433,7 +435,7 @@ class QuasiStaticRun:
                     halve_load_step(times, step, t_prev, self.dt)
                     self.progress.retotal(len(times) - 1)
                     if adaptive.adaptive_output_frequency:
-                        multiply_output_frequency(sim.outputs.writers, 2.0)
+                        multiply_output_frequency(self.services.files.writers, 2.0)
                     continue  # same index, now the shorter step
                 if adaptive is not None and adaptive.reduce_all_remaining and convergence_failed_in_step:
                     reduce_remaining_load_steps(times, step, t_cur, self.dt, t_final)
@@ -444,7 +446,7 @@ class QuasiStaticRun:
                 failed_this_step = 0
                 self.u[:n] += self.du[:n]
                 predictor = self.v[:n].copy()
-                sim.write_output(t_cur)
+                self.services.write_output(t_cur)
                 sim.advance()
                 completed += 1
                 log.info("%s: load step %d of %d (t = %.6g) %s: residual %.4g (tolerance %.4g) after %d iteration(s)",
@@ -488,7 +490,7 @@ class QuasiStaticRun:
         sw = self.q.adaptive.switch_to_verlet
         log.warning("%s: too many load step reductions; continuing with explicit dynamics (Verlet) from t = %.6g", self.section, t_start)
         if sw.output_frequency is not None:
-            change_output_frequency(sim.outputs.writers, sw.output_frequency)
+            change_output_frequency(self.services.files.writers, sw.output_frequency)
         try:
             verlet = fallback_verlet(self.solver, sim, t_start, t_final)
         except InputError as exc:
@@ -496,4 +498,4 @@ class QuasiStaticRun:
         n = self.n
         np.add(self.x, self.u, out=self.y)
         self.v[:n] = predictor
-        verlet.run(sim, self.state)
+        verlet.run(sim, self.state, self.services)

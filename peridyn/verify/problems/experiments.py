@@ -8,7 +8,6 @@ to the notch.
 Units: SI throughout (m, s, kg, Pa, J/m^2); angles in degrees."""
 from __future__ import annotations
 
-from unittest.mock import patch
 
 import contextlib
 import math
@@ -19,6 +18,7 @@ from typing import Any, Callable, Iterator
 
 import numpy as np
 
+from ...engine.run_services import RunServices
 from ...engine.session import run_section
 from .base import Check, Measurement, Problem
 
@@ -178,8 +178,7 @@ def recorded_run(tree: dict[str, Any], safety: float, t_end: float, every: int, 
         steps = int(math.ceil(t_end / dt))
         solver = Verlet(_section(steps * dt * (1.0 + 1e-9), {"Fixed dt": dt}))
         solver.MEASURE_ABOVE = math.inf
-        with patch.object(sim, "write_output", write):  # the harness reads every step, as an output would
-            run_section(sim, solver)
+        run_section(sim, solver, run=RunServices.reading(write))  # the harness reads every step, as an output would
     return sim, dt
 
 

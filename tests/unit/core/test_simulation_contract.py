@@ -98,7 +98,7 @@ def clock_writes() -> list[tuple[str, int, str]]:
 
 def test_the_solver_state_is_handed_on_not_held_by_the_simulation():
     """The solver state (time, acceleration, increments, iterations, shared tangents) is what a
-    section is handed and returns (``Solver.run(sim, state) -> SolverState``); the simulation
+    section is handed and returns (``Solver.run(sim, state, run) -> SolverState``); the simulation
     shows only its clock, read-only, and holds no acceleration or increments of its own."""
     import inspect
 
@@ -110,11 +110,40 @@ def test_the_solver_state_is_handed_on_not_held_by_the_simulation():
     clock_members = {n for n in vars(Clock) if not n.startswith("_")}
     assert clock_members and clock_members <= set(SolverState.__dataclass_fields__)
     assert not {"acceleration", "delta_u", "delta_p", "solver_cache"} & clock_members
-    assert list(inspect.signature(Solver.run).parameters) == ["self", "sim", "state"]
+    assert list(inspect.signature(Solver.run).parameters) == ["self", "sim", "state", "run"]
     sim = build_simulation(cube_deck({"Material Model": "Elastic", "Density": 1.0, "Bulk Modulus": 1.0, "Shear Modulus": 0.5}, n=4))
     assert not [k for k, v in vars(sim).items() if isinstance(v, SolverState) and k != "clock"]
     writes = clock_writes()
     assert not writes, "the clock written (write the state the solver was handed):\n" + "\n".join(f"{f}:{line}: {n}" for f, line, n in writes)
+
+
+def test_the_run_services_are_handed_to_solvers_not_held_by_the_simulation(tmp_path):
+    """The output files, checkpoints and progress are the run's (``RunServices``, handed to
+    ``Solver.run``): the contract declares none of them, and a simulation set up for a deck
+    with an output and a Restart section holds no output file, writer or checkpoints, nor does
+    what its outputs compute (``sim.outputs``)."""
+    from peridyn.core.services import RunServices
+    from peridyn.engine.output import OutputFiles, OutputWriter
+    from peridyn.engine.restart import Checkpoints
+    from peridyn.engine.session import RunSession
+
+    assert not {"restart", "checkpoints", "progress", "write_output", "writers", "files"} & declared()
+    assert set(RunServices.__annotations__) == {"files", "checkpoints", "progress"}
+    tree = cube_deck({"Material Model": "Elastic", "Density": 1.0, "Bulk Modulus": 1.0, "Shear Modulus": 0.5}, n=3)
+    tree["Output"] = {"Output Filename": "cube", "Output Frequency": 1, "Output Variables": {"Displacement": True}}
+    tree["Restart"] = {"Restart Frequency": 1}
+    (tmp_path / "cube.yaml").write_text(__import__("yaml").safe_dump(tree))
+    session = RunSession(tmp_path / "cube.yaml", output_dir=tmp_path, progress=False)
+    sim = session.open()
+    try:
+        assert session.services is not None and isinstance(session.services.checkpoints, Checkpoints)
+        assert len(session.services.files.writers) == 1
+        held = (OutputFiles, OutputWriter, Checkpoints)
+        for owner in (sim, sim.outputs):
+            assert not [k for k, v in vars(owner).items() if isinstance(v, held)
+                        or (isinstance(v, list) and any(isinstance(x, held) for x in v))], type(owner).__name__
+    finally:
+        session.close(complete=False)
 
 
 def test_the_clock_check_sees_a_write():

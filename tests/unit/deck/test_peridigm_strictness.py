@@ -89,7 +89,7 @@ def build(tmp_path, text):
 
     deck = tmp_path / "deck.yaml"
     deck.write_text(text)
-    return Simulation(load_deck(str(deck)), output_dir=tmp_path, progress=False)
+    return Simulation(load_deck(str(deck)), output_dir=tmp_path)
 
 
 def assert_accepted(tmp_path, text, capsys):

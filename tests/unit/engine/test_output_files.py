@@ -227,7 +227,7 @@ def velocities(folder: Path, top="") -> np.ndarray:
     from peridyn.engine.simulation import Simulation
 
     deck = load_deck(write(folder, top=top))
-    sim = Simulation(deck, output_dir=folder, progress=False)
+    sim = Simulation(deck, output_dir=folder)
     v = np.empty((sim.num_global, 3))
     v[sim.gid[: sim.num_owned]] = sim.fields["Velocity"][: sim.num_owned]
     return v

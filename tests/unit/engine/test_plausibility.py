@@ -8,6 +8,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from peridyn.engine.run_services import RunServices
 from peridyn.cli import main
 from peridyn.core.errors import ExitCode, InputError, InstabilityError
 from peridyn.deck.model import load_deck
@@ -128,7 +129,7 @@ def test_consistent_materials_name_no_slip(bulk, density):
 
 
 def test_the_valid_deck_gets_no_warning_and_no_hint(tmp_path, caplog):
-    sim = Simulation(load_deck(write(tmp_path)), progress=False, write_files=False)
+    sim = Simulation(load_deck(write(tmp_path)), write_files=False)
     assert slip_warnings(caplog) == []
     assert plausibility.unit_slip_hint(sim) == ""
 
@@ -145,7 +146,7 @@ def test_a_horizon_in_millimetres_is_refused_naming_the_slip(tmp_path, capsys):
 
 def test_no_limits_runs_the_horizon_anyway_with_a_warning(tmp_path, monkeypatch, caplog):
     monkeypatch.setenv(limits.ENV, "1")
-    sim = Simulation(load_deck(write(tmp_path, horizon=3.015)), progress=False, write_files=False)
+    sim = Simulation(load_deck(write(tmp_path, horizon=3.015)), write_files=False)
     assert sim.num_bonds_global == 64 * 63
     assert any("millimetres" in w for w in slip_warnings(caplog))
 
@@ -158,7 +159,7 @@ def test_a_horizon_in_metres_with_coordinates_in_millimetres_is_named(tmp_path, 
 
 
 def test_tens_of_spacings_warn_and_run(tmp_path, caplog):
-    sim = Simulation(load_deck(write(tmp_path, horizon=0.06)), progress=False, write_files=False)  # 60 spacings, all bonded
+    sim = Simulation(load_deck(write(tmp_path, horizon=0.06)), write_files=False)  # 60 spacings, all bonded
     assert sim.num_bonds_global == 64 * 63
     assert any("60 point spacings" in w for w in slip_warnings(caplog))
 
@@ -198,14 +199,14 @@ def test_steel_next_to_rubber_is_no_slip():
 def test_a_fixed_dt_far_above_the_wave_crossing_warns_naming_the_moduli(tmp_path, caplog):
     deck = write(tmp_path, modulus=72.0e18)
     deck.write_text(deck.read_text().replace("Safety Factor: 0.8", "Fixed dt: 1.6e-7"))
-    Simulation(load_deck(deck), progress=False, write_files=False)
+    Simulation(load_deck(deck), write_files=False)
     found = [w for w in slip_warnings(caplog) if "'Fixed dt' 1.6e-07" in w]
     assert len(found) == 1 and "1e9 times too large" in found[0]
 
 
 def test_moduli_in_gpa_on_a_short_run_are_named_where_no_step_fits(tmp_path, capsys):
     deck = write(tmp_path, modulus=72.0)
-    sim = Simulation(load_deck(deck), progress=False, write_files=False)
+    sim = Simulation(load_deck(deck), write_files=False)
     with pytest.raises(InputError, match="not one step would be run") as info:
         sim.plan_solvers()
     hint = plausibility.unit_slip_hint(sim)
@@ -217,11 +218,12 @@ def test_moduli_in_gpa_on_a_short_run_are_named_where_no_step_fits(tmp_path, cap
 def test_moduli_in_gpa_on_a_long_run_name_the_slip_at_the_instability(tmp_path):
     """Issue #33: 72 (GPa meant) on a run long enough for steps: the pulled ends move faster than
     sound; the instability that follows is the slip's, not the Safety Factor's."""
-    sim = Simulation(load_deck(write(tmp_path, modulus=72.0, final=0.5)), progress=False, output_dir=tmp_path)
+    sim = Simulation(load_deck(write(tmp_path, modulus=72.0, final=0.5)), output_dir=tmp_path)
     assert plausibility.unit_slip_hint(sim) == ""  # nothing yet: the body is at rest
+    run = RunServices.of(sim)
     with pytest.raises(InstabilityError):
-        run_sections(sim)
-    sim.outputs.close(complete=False)
+        run_sections(sim, run=run)
+    run.close(complete=False)
     hint = plausibility.unit_slip_hint(sim)
     assert "the prescribed motion (" in hint and "times the wave speed sqrt(bulk modulus/density) = 0.133" in hint
     assert "moduli in GPa" in hint
@@ -262,7 +264,7 @@ def test_every_unit_slip_runs_warns_or_is_refused_naming_it(tmp_path, caplog, na
     caplog.clear()
     deck = mutate(tmp_path, names, final)
     try:
-        sim = Simulation(load_deck(deck), progress=False, output_dir=tmp_path)
+        sim = Simulation(load_deck(deck), output_dir=tmp_path)
     except InputError as exc:
         assert any(word in str(exc) for word in NAMES), str(exc)
         return
@@ -272,16 +274,15 @@ def test_every_unit_slip_runs_warns_or_is_refused_naming_it(tmp_path, caplog, na
     except InputError as exc:
         assert "not one step would be run" in str(exc) or "steps" in str(exc)
         assert any(word in plausibility.unit_slip_hint(sim) for word in NAMES), (names, str(exc))
-        sim.outputs.close(complete=False)
         return
     steps = plan[0][1]
     if steps > 3000:
-        sim.outputs.close(complete=False)
         return
+    run = RunServices.of(sim)
     try:
-        run_sections(sim)
+        run_sections(sim, run=run)
     except InstabilityError as exc:
         hint = plausibility.unit_slip_hint(sim)
         assert any(word in hint for word in NAMES) or warned, (names, str(exc))
     finally:
-        sim.outputs.close(complete=False)
+        run.close(complete=False)

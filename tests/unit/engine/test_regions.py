@@ -222,7 +222,7 @@ def test_a_region_without_points_is_the_empty_node_set_error(tmp_path):
 
     deck = load_deck(deck_with(tmp_path, "Box: {Min: [5, 5, 5], Max: [6, 6, 6]}"))
     with pytest.raises(InputError, match="is empty"):
-        Simulation(deck, output_dir=tmp_path, progress=False)
+        Simulation(deck, output_dir=tmp_path)
 
 
 def test_a_region_expression_that_is_nan_is_one_error(tmp_path):
@@ -230,7 +230,7 @@ def test_a_region_expression_that_is_nan_is_one_error(tmp_path):
 
     deck = load_deck(deck_with(tmp_path, 'Expression: "sqrt(x - 0.5)"'))
     with pytest.raises(InputError) as info:
-        Simulation(deck, output_dir=tmp_path, progress=False)
+        Simulation(deck, output_dir=tmp_path)
     text = str(info.value)
     assert "Region Node Set > Expression" in text and "is NaN at the point" in text and "unknown node set" not in text, text
 
@@ -243,7 +243,7 @@ def test_a_region_node_set_drives_a_condition(tmp_path):
       Layer: {Surface Layer: {Thickness: 0.2}}
       Right: {Half Space: {Point: [0.75, 0, 0], Normal: [1, 0, 0]}}
     """
-    sim = Simulation(load_deck(deck_with(tmp_path, region)), output_dir=tmp_path, progress=False)
+    sim = Simulation(load_deck(deck_with(tmp_path, region)), output_dir=tmp_path)
     x, v = sim.fields["Model_Coordinates"][: sim.num_owned], sim.fields["Velocity"][: sim.num_owned, 0]
     np.testing.assert_array_equal(v == 1.0, x[:, 0] > 0.7)  # the plane x = 0.75 on the half-space's plane is in (inclusive)
 

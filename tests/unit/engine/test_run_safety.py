@@ -7,6 +7,7 @@ import netCDF4
 import numpy as np
 import pytest
 
+from peridyn.engine.run_services import RunServices
 from peridyn.cli import main
 from peridyn.core.errors import ExitCode
 from peridyn.io.exodus_reader import read_results
@@ -213,17 +214,18 @@ def test_a_frame_with_nan_is_never_written(tmp_path):
     from peridyn.deck.model import load_deck
     from peridyn.engine.simulation import Simulation
 
-    sim = Simulation(load_deck(write(tmp_path)), output_dir=tmp_path, progress=False)
-    sim.write_output(0.0)
+    sim = Simulation(load_deck(write(tmp_path)), output_dir=tmp_path)
+    run = RunServices.of(sim)
+    run.write_output(0.0)
     sim.fields["Velocity"][5, 1] = np.nan
     for _ in range(5):  # the output frequency is 5
         try:
-            sim.write_output(1.0)
+            run.write_output(1.0)
         except InstabilityError as exc:
             assert f"Velocity is not finite at point {int(sim.gid[5]) + 1} at t = 1" in str(exc)
             break
     else:
         pytest.fail("the NaN frame was written")
-    sim.outputs.close(complete=True)
+    run.close(complete=True)
     assert frames_are_finite(tmp_path / "run.e")
     assert len(read_results(tmp_path / "run.e")["times"]) == 1

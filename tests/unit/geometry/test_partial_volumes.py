@@ -264,7 +264,7 @@ def test_reference_neighborhood_volumes_to_round_off(tmp_path: Path):
 
     for name in ("NeighborhoodVolume.xml", "NeighborhoodVolume.g"):
         shutil.copy(NV_CASE / name, tmp_path / name)
-    sim = Simulation(load_deck(tmp_path / "NeighborhoodVolume.xml"), output_dir=tmp_path, progress=False)
+    sim = Simulation(load_deck(tmp_path / "NeighborhoodVolume.xml"), output_dir=tmp_path)
     sim.outputs.run_computes(["Neighborhood_Volume", "Number_Of_Neighbors"])
     n = sim.num_owned
     order = sim.mothership_of_local[:n]

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from peridyn.engine.run_services import RunServices
 from peridyn.core.errors import InputError
 from peridyn.io.interfaces import (
     InterfaceFile,
@@ -163,11 +164,12 @@ def test_engine_writes_apertures_lagged_by_one_write(tmp_path: Path):
     assert (tmp_path / "Interfaces.e").exists()  # created at construction
     y = sim.fields["Coordinates"]
     right = int(np.argmax(sim.fields["Model_Coordinates"][:, 0]))
-    sim.write_output(0.0)
+    run = RunServices.of(sim)
+    run.write_output(0.0)
     y[right, 0] += 0.1
-    sim.write_output(1.0)
-    sim.write_output(2.0)
-    sim.outputs.close()
+    run.write_output(1.0)
+    run.write_output(2.0)
+    run.close()
     ds = netCDF4.Dataset(tmp_path / "Interfaces.e")
     ds.set_auto_mask(False)
     np.testing.assert_array_equal(ds["time_whole"][:], np.float32([0.0, 1.0, 2.0]))
@@ -202,9 +204,10 @@ def test_reference_case_is_reproduced_bit_for_bit(tmp_path: Path):
 
     for name in ("Interfaces.xml", "Interfaces.g"):
         shutil.copy(CASE / name, tmp_path / name)
-    sim = Simulation(load_deck(tmp_path / "Interfaces.xml"), output_dir=tmp_path, progress=False)
-    run_sections(sim)
-    sim.outputs.close()
+    sim = Simulation(load_deck(tmp_path / "Interfaces.xml"), output_dir=tmp_path)
+    run = RunServices.of(sim)
+    run_sections(sim, run=run)
+    run.close()
     sim.interfaces.close()
     ours = netCDF4.Dataset(tmp_path / "Interfaces.e")
     gold = netCDF4.Dataset(CASE / "Interfaces_gold.e")

@@ -16,6 +16,7 @@ import scipy.sparse as sp
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from peridyn.engine.run_services import RunServices
 from peridyn.core.errors import PeridynError
 from peridyn.solvers.linalg.ilu import ILU0, ZeroPivotError, csr_pattern
 
@@ -328,7 +329,7 @@ def test_nox_aztec_ilu_preconditioner_is_ilu0_of_the_tangent(h):
     tree["Solver"] = {"Final Time": 1.0, "NOXQuasiStatic": {"Number of Load Steps": 1, "Direction": {"Method": "Newton", "Newton": {"Linear Solver": lin}}}}
     sim = h.build(tree)
     entry = sim.deck.solvers[0]
-    run = NOXRun(entry.cls(entry.params, section=entry.section), sim, SolverState())
+    run = NOXRun(entry.cls(entry.params, section=entry.section), sim, SolverState(), RunServices.of(sim, write=False))
     h.perturb(sim)
     s = np.zeros(3 * run.n)
     run.jacobian(s)

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
+from peridyn.engine.run_services import RunServices
 from peridyn.cli import main
 from peridyn.core.errors import ExitCode, InstabilityError
 from peridyn.core.influence import ONE
@@ -310,9 +311,10 @@ def simulate(tmp_path, tree):
     from peridyn.engine.simulation import Simulation
 
     (tmp_path / "d.yaml").write_text(dump_yaml(tree))
-    sim = Simulation(load_deck(tmp_path / "d.yaml"), output_dir=tmp_path, progress=False)
-    run_sections(sim)
-    sim.outputs.close(complete=True)
+    sim = Simulation(load_deck(tmp_path / "d.yaml"), output_dir=tmp_path)
+    run = RunServices.of(sim)
+    run_sections(sim, run=run)
+    run.close(complete=True)
     return sim
 
 

@@ -13,6 +13,7 @@ from peridyn.solvers.implicit.quasistatic import (
     reduce_remaining_load_steps,
 )
 from tests.unit.solvers.implicit.test_implicit_solvers import bar_deck
+from peridyn.engine.run_services import RunServices
 from peridyn.engine.session import run_sections
 
 
@@ -85,33 +86,36 @@ def attempts(sim):
 def test_halving_until_a_step_converges_then_the_remaining_steps(h, tmp_path, tolerance):
     sim = qs(h, tmp_path, qs={"Absolute Tolerance": tolerance}, **{"Maximum load step reductions in one step": 2, "Maximum total load step reductions": 5,
                                                                 "Adaptive output frequency": True})
-    run_sections(sim)
+    run = RunServices.of(sim)
+    run_sections(sim, run=run)
     got = attempts(sim)
     # 1 -> 0.5 -> 0.25 (accepted); then 0.25 to 0.5 at dt 0.25; then 0.5 to 1 fails once and is halved
     assert [dt for dt, _ in got] == [1.0, 0.5, 0.25, 0.25, 0.5, 0.25, 0.25]
     assert [o for _, o in got] == ["cut back", "cut back", "accepted", "accepted", "cut back", "accepted", "accepted"]
     assert sim.stats["solvers"][0]["load_step_reductions"] == 3
     assert sim.clock.time == pytest.approx(1.0)
-    assert sim.outputs.writers[0].frequency == 8  # doubled at each of the three halvings
+    assert run.files.writers[0].frequency == 8  # doubled at each of the three halvings
 
 
 def test_reduce_all_remaining_load_steps_keeps_the_small_step(h, tmp_path, tolerance):
     sim = qs(h, tmp_path, qs={"Absolute Tolerance": tolerance}, **{"Maximum load step reductions in one step": 2, "Maximum total load step reductions": 2,
                                                                 "Reduce all remaining load steps": True})
-    run_sections(sim)
+    run = RunServices.of(sim)
+    run_sections(sim, run=run)
     got = attempts(sim)
     assert [dt for dt, _ in got] == [1.0, 0.5, 0.25, 0.25, 0.25, 0.25]
     assert sim.stats["solvers"][0]["load_step_reductions"] == 2
-    assert sim.outputs.writers[0].frequency == 1  # no Adaptive output frequency
-    assert sim.outputs.writers[0].count == 5  # t = 0 and the four accepted steps; failed attempts write nothing
+    assert run.files.writers[0].frequency == 1  # no Adaptive output frequency
+    assert run.files.writers[0].count == 5  # t = 0 and the four accepted steps; failed attempts write nothing
 
 
 def test_too_many_reductions_in_one_step_stop_the_solver(h, tmp_path, tolerance):
     sim = qs(h, tmp_path, qs={"Absolute Tolerance": tolerance}, **{"Maximum load step reductions in one step": 1, "Maximum total load step reductions": 5})
+    run = RunServices.of(sim)
     with pytest.raises(LoadStepError, match="no more load step reductions"):
-        run_sections(sim)
+        run_sections(sim, run=run)
     assert [o for _, o in attempts(sim)] == ["cut back", "failed"]
-    assert sim.outputs.writers[0].count == 1  # only the initial write
+    assert run.files.writers[0].count == 1  # only the initial write
 
 
 def test_the_total_limit_counts_every_halving(h, tmp_path, tolerance):
@@ -125,11 +129,12 @@ def test_the_total_limit_counts_every_halving(h, tmp_path, tolerance):
 def test_switch_to_verlet_restarts_from_the_last_accepted_step(h, tmp_path, tolerance):
     sim = qs(h, tmp_path, qs={"Absolute Tolerance": tolerance}, **{"Maximum load step reductions in one step": 2, "Maximum total load step reductions": 2,
                                                                 "Switch to Verlet": {"Fixed dt": 1.0e-4, "Output Frequency": 400}})
-    run_sections(sim)
+    run = RunServices.of(sim)
+    run_sections(sim, run=run)
     st = sim.stats["solvers"]
     assert [s["method"] for s in st] == ["QuasiStatic", "Verlet"]
     assert st[1]["steps"] == 5000  # from t_prev = 0.5 to 1.0 at dt 1e-4 (below the estimate, 1.18e-4)
-    assert sim.outputs.writers[0].frequency == 400
+    assert run.files.writers[0].frequency == 400
 
 
 def test_a_switch_to_verlet_that_cannot_advance_stops_the_run(h, tmp_path, tolerance):

@@ -4,6 +4,7 @@ import netCDF4
 import numpy as np
 import pytest
 
+from peridyn.engine.run_services import RunServices
 from peridyn.core.errors import InputError
 from peridyn.deck.files import dump_yaml
 from peridyn.solvers.implicit.coupled import CoupledProblem
@@ -49,10 +50,11 @@ def bar_deck(n=8, p_left="2.0*t", p_right="0.0", steps=2, solver=None, initial=N
 def run(tree, tmp_path, outputs=("Displacement", "Fluid_Pressure_U", "Flux_Density")):
     tree = dict(tree, Output={"Output Filename": "run", "Output Frequency": 1, "Output Variables": {k: True for k in outputs}})
     sim = build_simulation(tree, directory=tmp_path, output_dir=tmp_path)
+    run = RunServices.of(sim)
     try:
-        run_sections(sim)
+        run_sections(sim, run=run)
     finally:
-        sim.outputs.close()
+        run.close()
     return sim
 
 

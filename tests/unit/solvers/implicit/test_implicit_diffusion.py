@@ -5,6 +5,7 @@ import netCDF4
 import numpy as np
 import pytest
 
+from peridyn.engine.run_services import RunServices
 from peridyn.cli import main
 from peridyn.core.errors import ExitCode, InputError
 from peridyn.deck.files import dump_yaml
@@ -34,10 +35,11 @@ def bar_deck(n=16, layers=3, value="100.0 + 20.0*x*t", initial=None, steps=2, **
 def run_deck(tree, tmp_path, outputs=("Temperature", "Flux_Divergence")):
     tree = dict(tree, Output={"Output Filename": "run", "Output Frequency": 1, "Output Variables": {k: True for k in outputs}})
     sim = build_simulation(tree, directory=tmp_path, output_dir=tmp_path)
+    run = RunServices.of(sim)
     try:
-        run_sections(sim)
+        run_sections(sim, run=run)
     finally:
-        sim.outputs.close()
+        run.close()
     return sim
 
 

@@ -4,6 +4,7 @@ linear-solver choices."""
 import numpy as np
 import pytest
 
+from peridyn.engine.run_services import RunServices
 from peridyn.core.errors import InputError
 from peridyn.engine.session import run_section, run_sections
 
@@ -132,8 +133,9 @@ def test_rank_deficient_node_set(h, tmp_path, solver, damage, expected):
     tree["Output"] = {"Output Filename": "bar", "Output Frequency": 1, "Output Variables": {"Displacement": True}}
     sim = h.build(tree, output_dir=tmp_path)
     assert ("RANK_DEFICIENT_NODES" in sim.node_sets) is expected
-    sim.write_output(0.0)
-    sim.outputs.close()
+    run = RunServices.of(sim)
+    run.write_output(0.0)
+    run.close()
     with netCDF4.Dataset(tmp_path / "bar.e") as ds:
         names = ["".join(c.decode() for c in row if c) for row in ds.variables["ns_names"][:].data] if "ns_names" in ds.variables else []
         assert ("RANK_DEFICIENT_NODES" in names) is expected
@@ -163,13 +165,14 @@ def test_quasistatic_then_verlet_starts_from_the_quasistatic_state(h):
     tree["Solver2"] = {"Initial Time": 1.0e-5, "Final Time": 1.2e-5, "Verlet": {"Fixed dt": 1.0e-6}}
     sim = h.build(tree)
     entries = sim.deck.solvers
-    state = run_section(sim, entries[0].cls(entries[0].params, section=entries[0].section))
+    run = RunServices.of(sim)
+    state = run_section(sim, entries[0].cls(entries[0].params, section=entries[0].section), run=run)
     u_qs = sim.fields["Displacement"].copy()
     v_qs = sim.fields["Velocity"].copy()
     x = sim.fields["Model_Coordinates"]
     right = x[:, 0] > 5.0
     np.testing.assert_allclose(v_qs[right, 0], 0.005 / 5.0e-6, rtol=1e-12)  # (1000 t) over the second load step
-    run_section(sim, entries[1].cls(entries[1].params, section=entries[1].section), state)
+    run_section(sim, entries[1].cls(entries[1].params, section=entries[1].section), state, run)
     du = sim.fields["Displacement"] - u_qs
     steps = sim.stats["solvers"][-1]["steps"]  # floor((t_f - t_0)/dt), Peridigm's count
     assert steps >= 1
