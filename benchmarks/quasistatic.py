@@ -33,6 +33,7 @@ def child(deck_path: str, linear_solver: str, out_dir: str) -> dict:
 
     _single_threaded_blas()  # what `peridyn run` sets up (threads per rank under MPI)
     from peridyn.deck.model import load_deck
+    from peridyn.engine.run_services import RunServices
     from peridyn.engine.session import run_section
     from peridyn.engine.simulation import Simulation
     from peridyn.parallel.comm import get_comm
