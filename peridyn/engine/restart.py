@@ -99,14 +99,13 @@ def _json_default(value: Any) -> Any:
 
 
 class Checkpoints:
-    """What a run does about checkpoints: writes them (a deck with a ``Restart`` section), and
-    continues from one (``--restart``), for the run of ``sim`` whose output files are
-    ``files``. The run's ``checkpoints`` service: the solvers call :meth:`begin_section`,
-    :meth:`resume`, :meth:`after_step` and :meth:`end_section`."""
+    """What a run of ``sim`` with output ``files`` does about checkpoints: writes them (a deck
+    with a ``Restart`` section), and continues from one (``--restart``). The run's
+    ``checkpoints``: solvers call :meth:`begin_section`, :meth:`resume`, :meth:`after_step`
+    and :meth:`end_section`."""
 
     def __init__(self, sim, files: OutputFiles, params=None) -> None:
-        self.sim = sim
-        self.files = files
+        self.sim, self.files = sim, files
         self.params = params  #: RestartParams, or None: no checkpoint is written
         self.folder = sim.output_dir / (params.folder if params is not None else "restart")
         self.stem = Path(sim.deck.file).stem
