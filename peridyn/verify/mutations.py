@@ -56,7 +56,13 @@ MUTATIONS: tuple[Mutation, ...] = (
         "correspondence-shear-x1.1", "the correspondence elastic stress with G 10 % too large",
         (S("materials/correspondence/stress.py", "store9(sigma_NP1, i, _trial_stress(load9(sigma_N, i), de, dth, K, G))",
            "store9(sigma_NP1, i, _trial_stress(load9(sigma_N, i), de, dth, K, 1.1 * G))"),),
-        ("poisson-ratio", "static-modulus", "kirsch"),
+        ("poisson-ratio", "static-modulus", "kirsch", "lame-cylinder"),
+    ),
+    Mutation(
+        "correspondence-bulk-x1.05", "the correspondence elastic stress with K 5 % too large",
+        (S("materials/correspondence/stress.py", "store9(sigma_NP1, i, _trial_stress(load9(sigma_N, i), de, dth, K, G))",
+           "store9(sigma_NP1, i, _trial_stress(load9(sigma_N, i), de, dth, 1.05 * K, G))"),),
+        ("lame-cylinder",),
     ),
     Mutation(
         "plastic-yield-x1.1", "the yield stress of `Elastic Plastic` 10 % too large",
