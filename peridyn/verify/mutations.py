@@ -18,6 +18,12 @@ MUTATIONS: tuple[Mutation, ...] = (
         ("wave-speed", "dispersion", "lattice-constants", "poisson-ratio", "static-modulus", "confined-compression"),
     ),
     Mutation(
+        "block-density-x0.9", "every block after the first given 0.9 times its density in the points' masses",
+        (S("engine/simulation.py", "densities = np.array([blk.density for blk in self.blocks])",
+           "densities = np.array([blk.density * (1.0 if b == 0 else 0.9) for b, blk in enumerate(self.blocks)])"),),
+        ("density-contrast",), area="solvers",
+    ),
+    Mutation(
         "critical-step-x1.7", "the critical time-step estimate 1.7 times too large",
         (S("engine/critical_step.py", "    return dt[: sim.num_owned]\n", "    return 1.7 * dt[: sim.num_owned]\n"),),
         ("stability",), area="time step",
