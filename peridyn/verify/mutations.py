@@ -15,7 +15,7 @@ MUTATIONS: tuple[Mutation, ...] = (
         (S(_EL, "return ((((3.0 * w) * keep) * z) * e) * volume[j]", "return ((((2.9 * w) * keep) * z) * e) * volume[j]"),
          S(_EL, "return ((3.0 * z) * (L - z)) * P[j, 5]", "return ((2.9 * z) * (L - z)) * P[j, 5]"),
          S(_EL, "return ((((3.0 * w) * (1.0 - d)) * z) * (L - z)) * P[j, 5]", "return ((((2.9 * w) * (1.0 - d)) * z) * (L - z)) * P[j, 5]")),
-        ("wave-speed", "dispersion", "lattice-constants", "poisson-ratio", "static-modulus", "confined-compression"),
+        ("wave-speed", "dispersion", "lattice-constants", "poisson-ratio", "static-modulus", "confined-compression", "manufactured-lps"),
     ),
     Mutation(
         "block-density-x0.9", "every block after the first given 0.9 times its density in the points' masses",
@@ -41,12 +41,12 @@ MUTATIONS: tuple[Mutation, ...] = (
     Mutation(
         "lps-shear-x0.95", "the LPS deviatoric coefficient 15 mu / m 5 % too small (`Elastic`)",
         (S(_EL, "    a = (15.0 * mu) / m\n", "    a = (14.25 * mu) / m\n"),),
-        ("wave-speed", "dispersion", "lattice-constants", "poisson-ratio", "static-modulus"),
+        ("wave-speed", "dispersion", "lattice-constants", "poisson-ratio", "static-modulus", "manufactured-lps"),
     ),
     Mutation(
         "lps-bulk-x1.05", "the LPS bulk term 3 K / m 5 % too large (`Elastic`)",
         (S(_EL, "return a, theta * ((3.0 * K) / m - a / 3.0)", "return a, theta * ((3.15 * K) / m - a / 3.0)"),),
-        ("wave-speed", "dispersion", "lattice-constants", "poisson-ratio", "static-modulus"),
+        ("wave-speed", "dispersion", "lattice-constants", "poisson-ratio", "static-modulus", "manufactured-lps"),
     ),
     Mutation(
         "bond-based-micromodulus-x1.05", "the 3D bond-based micromodulus 18 K / (pi delta^4) 5 % too large",

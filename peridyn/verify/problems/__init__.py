@@ -21,6 +21,7 @@ from .griffith import Griffith
 from .j_integral import JIntegral
 from .lame import LameCylinder
 from .lattice import LatticeConstants
+from .manufactured import ManufacturedLPS
 from .newmark import NewmarkEnergy
 from .parallel import ParallelAgreement
 from .rotation import RigidRotation
@@ -30,7 +31,7 @@ from .static import StaticModulus
 PROBLEMS: dict[str, type[Problem]] = {
     cls.name: cls
     for cls in (
-        WaveSpeed, Dispersion, LatticeConstants, ForceConvergence, VerletEnergy, NewmarkEnergy, Stability, ContactStability, ContactStep, ParallelAgreement, ExtremeCases, RigidRotation, ConfinedCompression, LameCylinder, DensityContrast, StaticModulus,
+        WaveSpeed, Dispersion, LatticeConstants, ForceConvergence, VerletEnergy, NewmarkEnergy, Stability, ContactStability, ContactStep, ParallelAgreement, ExtremeCases, RigidRotation, ConfinedCompression, ManufacturedLPS, LameCylinder, DensityContrast, StaticModulus,
         PoissonRatio, Kirsch, DeltaConvergence, CriticalStretch, Griffith, JIntegral, KalthoffWinkler, GlassBranching, BrazilianDisk, Diffusion, ViscoelasticRelaxation, PlasticityUniaxial,
         Hertz, HertzPenalty,
     )
