@@ -1,0 +1,62 @@
+"""The Young's modulus of an LPS bar with free faces, from the bond sums of its truncated families:
+the reference for the surface layer of ``static-modulus``'s LPS bar, computed here and not fitted
+to the model's runs.
+
+The bar is a prism of n x n lattice points across (spacing h, infinite along its axis y), the
+LPS solid with influence 1 and full point volumes: a point's family is every lattice vector
+|xi| <= delta whose end lies in the section, so the points near the faces have truncated
+families (their weighted volume m and dilatation theta are sums over what is there). Under the
+axial strain eps, the points move in the section plane by (u_x, u_z) of their own, free (the
+lateral contraction, the surface layer's relaxation, the edges); the energy per unit length,
+minimised over them, is E_bar A eps^2 / 2, A = (n h)^2. Linearised bond extension
+e = (eps xi_y^2 + (u(x') - u(x)) . xi) / |xi|; per point
+W = K/2 theta^2 + 15 G / (2 m) sum (e - theta |xi| / 3)^2 V, theta = 3 / m sum |xi| e V, so
+W = (K - 5 G / 3) theta^2 / 2 + 15 G / (2 m) sum e^2 V. Units: Pa (moduli in, modulus out)."""
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from ...testing.tensile import lattice_family
+
+
+def prismatic_bar_modulus(bulk: float, shear: float, ratio: float, n: int) -> float:
+    """E_bar (Pa) of the LPS prism of ``n`` x ``n`` points across at horizon / spacing ``ratio``
+    (moduli ``bulk``, ``shear`` in Pa): the Schur complement of the energy's Hessian in eps after
+    the in-plane displacements (2 n^2 of them; the section's rigid motions by least squares)."""
+    xi, d = lattice_family(ratio)
+    a, c = np.rint(xi[:, 0]).astype(int), np.rint(xi[:, 2]).astype(int)
+    unknowns = 1 + 2 * n * n  # eps, then (u_x, u_z) of each point, point p = i n + k
+    rows, cols, vals, weight = [], [], [], []
+    theta_rows, theta_cols, theta_vals = [], [], []
+    bond = 0
+    for i in range(n):
+        for k in range(n):
+            ii, kk = i + a, k + c
+            ok = (ii >= 0) & (ii < n) & (kk >= 0) & (kk < n)
+            x, dd = xi[ok], d[ok]
+            p, q = i * n + k, ii[ok] * n + kk[ok]
+            nb = len(dd)
+            r = bond + np.arange(nb)
+            m = float(np.sum(dd * dd))
+            for col, v in ((np.zeros(nb, dtype=int), x[:, 1] ** 2 / dd), (1 + 2 * q, x[:, 0] / dd), (2 + 2 * q, x[:, 2] / dd),
+                           (np.full(nb, 1 + 2 * p), -x[:, 0] / dd), (np.full(nb, 2 + 2 * p), -x[:, 2] / dd)):
+                rows.append(r), cols.append(col), vals.append(v)
+            weight.append(np.full(nb, 15.0 * shear / m))
+            theta_rows.append(np.full(nb, p)), theta_cols.append(r), theta_vals.append(3.0 * dd / m)
+            bond += nb
+    B = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(bond, unknowns))
+    T = sp.csr_matrix((np.concatenate(theta_vals), (np.concatenate(theta_rows), np.concatenate(theta_cols))), shape=(n * n, bond)) @ B
+    H = ((bulk - 5.0 * shear / 3.0) * (T.T @ T) + B.T @ sp.diags(np.concatenate(weight)) @ B).toarray()
+    rest, her = H[1:, 1:], H[0, 1:]
+    eff = H[0, 0] - her @ np.linalg.lstsq(rest, her, rcond=None)[0]
+    return float(eff / (n * n))
+
+
+def surface_coefficient(bulk: float, shear: float, ratio: float, n: int, modulus: float) -> float:
+    """(E_bar - E_lattice) / modulus times the width in horizons, n / ratio: the bar's surface
+    stiffening in the form E_lattice + s modulus delta / width (``modulus``: E0, Pa)."""
+    from ...testing.tensile import lattice_youngs_modulus
+
+    return (prismatic_bar_modulus(bulk, shear, ratio, n) - lattice_youngs_modulus(bulk, shear, ratio)) / modulus * n / ratio
+
