@@ -41,7 +41,7 @@ MUTATIONS: tuple[Mutation, ...] = (
     Mutation(
         "lps-shear-x0.95", "the LPS deviatoric coefficient 15 mu / m 5 % too small (`Elastic`)",
         (S(_EL, "    a = (15.0 * mu) / m\n", "    a = (14.25 * mu) / m\n"),),
-        ("wave-speed", "dispersion", "lattice-constants", "poisson-ratio", "static-modulus", "manufactured-lps"),
+        ("wave-speed", "dispersion", "lattice-constants", "poisson-ratio", "static-modulus", "manufactured-lps", "one-layer-plate"),
     ),
     Mutation(
         "lps-bulk-x1.05", "the LPS bulk term 3 K / m 5 % too large (`Elastic`)",
@@ -56,7 +56,7 @@ MUTATIONS: tuple[Mutation, ...] = (
     Mutation(
         "bond-based-2d-micromodulus-x1.05", "the 2D bond-based micromodulus 12 K / (pi h delta^3) 5 % too large",
         (S("materials/elastic_bond_based.py", "self.c = (12.0 * self.K)", "self.c = (12.6 * self.K)"),),
-        ("lattice-constants", "j-integral", "kalthoff-winkler", "griffith"),
+        ("lattice-constants", "j-integral", "kalthoff-winkler", "griffith", "one-layer-plate"),
     ),
     Mutation(
         "correspondence-shear-x1.1", "the correspondence elastic stress with G 10 % too large",

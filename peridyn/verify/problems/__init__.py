@@ -24,6 +24,7 @@ from .lattice import LatticeConstants
 from .manufactured import ManufacturedLPS
 from .newmark import NewmarkEnergy
 from .parallel import ParallelAgreement
+from .plate import OneLayerPlate
 from .rotation import RigidRotation
 from .static import StaticModulus
 
@@ -31,7 +32,7 @@ from .static import StaticModulus
 PROBLEMS: dict[str, type[Problem]] = {
     cls.name: cls
     for cls in (
-        WaveSpeed, Dispersion, LatticeConstants, ForceConvergence, VerletEnergy, NewmarkEnergy, Stability, ContactStability, ContactStep, ParallelAgreement, ExtremeCases, RigidRotation, ConfinedCompression, ManufacturedLPS, LameCylinder, DensityContrast, StaticModulus,
+        WaveSpeed, Dispersion, LatticeConstants, ForceConvergence, VerletEnergy, NewmarkEnergy, Stability, ContactStability, ContactStep, ParallelAgreement, ExtremeCases, RigidRotation, ConfinedCompression, ManufacturedLPS, LameCylinder, DensityContrast, OneLayerPlate, StaticModulus,
         PoissonRatio, Kirsch, DeltaConvergence, CriticalStretch, Griffith, JIntegral, KalthoffWinkler, GlassBranching, BrazilianDisk, Diffusion, ViscoelasticRelaxation, PlasticityUniaxial,
         Hertz, HertzPenalty,
     )

@@ -11,8 +11,13 @@ lateral contraction, the surface layer's relaxation, the edges); the energy per 
 minimised over them, is E_bar A eps^2 / 2, A = (n h)^2. Linearised bond extension
 e = (eps xi_y^2 + (u(x') - u(x)) . xi) / |xi|; per point
 W = K/2 theta^2 + 15 G / (2 m) sum (e - theta |xi| / 3)^2 V, theta = 3 / m sum |xi| e V, so
-W = (K - 5 G / 3) theta^2 / 2 + 15 G / (2 m) sum e^2 V. Units: Pa (moduli in, modulus out)."""
+W = (K - 5 G / 3) theta^2 / 2 + 15 G / (2 m) sum e^2 V. The section may be n x l (a plate of one
+layer: l = 1, every family planar), and the model ``Elastic Bond Based`` (plane stress on one
+layer: W = c/4 sum e^2 / |xi| V, c = 12 K / (pi t delta^3), t = h). Units: Pa (moduli in,
+modulus out)."""
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import scipy.sparse as sp
@@ -20,37 +25,46 @@ import scipy.sparse as sp
 from ...testing.tensile import lattice_family
 
 
-def prismatic_bar_modulus(bulk: float, shear: float, ratio: float, n: int) -> float:
-    """E_bar (Pa) of the LPS prism of ``n`` x ``n`` points across at horizon / spacing ``ratio``
-    (moduli ``bulk``, ``shear`` in Pa): the Schur complement of the energy's Hessian in eps after
-    the in-plane displacements (2 n^2 of them; the section's rigid motions by least squares)."""
+def prismatic_bar_modulus(bulk: float, shear: float, ratio: float, n: int, layers: int | None = None,
+                          model: str = "Elastic") -> float:
+    """E_bar (Pa) of the prism of ``n`` x ``layers`` points across (``layers`` = n by default) at
+    horizon / spacing ``ratio`` (moduli ``bulk``, ``shear`` in Pa; ``shear`` unused by the
+    bond-based plate): the Schur complement of the energy's Hessian in eps after the in-plane
+    displacements (2 n l of them; the section's rigid motions by least squares)."""
+    if model not in ("Elastic", "Elastic Bond Based"):
+        raise ValueError(f"the prism is written for Elastic and the one-layer Elastic Bond Based plate, not {model!r}")
+    l = n if layers is None else int(layers)
+    if model == "Elastic Bond Based" and l != 1:
+        raise ValueError("the bond-based prism is the plane-stress plate of one layer (layers=1)")
     xi, d = lattice_family(ratio)
     a, c = np.rint(xi[:, 0]).astype(int), np.rint(xi[:, 2]).astype(int)
-    unknowns = 1 + 2 * n * n  # eps, then (u_x, u_z) of each point, point p = i n + k
+    unknowns = 1 + 2 * n * l  # eps, then (u_x, u_z) of each point, point p = i l + k
     rows, cols, vals, weight = [], [], [], []
     theta_rows, theta_cols, theta_vals = [], [], []
     bond = 0
     for i in range(n):
-        for k in range(n):
+        for k in range(l):
             ii, kk = i + a, k + c
-            ok = (ii >= 0) & (ii < n) & (kk >= 0) & (kk < n)
+            ok = (ii >= 0) & (ii < n) & (kk >= 0) & (kk < l)
             x, dd = xi[ok], d[ok]
-            p, q = i * n + k, ii[ok] * n + kk[ok]
+            p, q = i * l + k, ii[ok] * l + kk[ok]
             nb = len(dd)
             r = bond + np.arange(nb)
             m = float(np.sum(dd * dd))
             for col, v in ((np.zeros(nb, dtype=int), x[:, 1] ** 2 / dd), (1 + 2 * q, x[:, 0] / dd), (2 + 2 * q, x[:, 2] / dd),
                            (np.full(nb, 1 + 2 * p), -x[:, 0] / dd), (np.full(nb, 2 + 2 * p), -x[:, 2] / dd)):
                 rows.append(r), cols.append(col), vals.append(v)
-            weight.append(np.full(nb, 15.0 * shear / m))
+            weight.append(np.full(nb, 15.0 * shear / m) if model == "Elastic" else 6.0 * bulk / (math.pi * ratio**3) / dd)
             theta_rows.append(np.full(nb, p)), theta_cols.append(r), theta_vals.append(3.0 * dd / m)
             bond += nb
     B = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(bond, unknowns))
-    T = sp.csr_matrix((np.concatenate(theta_vals), (np.concatenate(theta_rows), np.concatenate(theta_cols))), shape=(n * n, bond)) @ B
-    H = ((bulk - 5.0 * shear / 3.0) * (T.T @ T) + B.T @ sp.diags(np.concatenate(weight)) @ B).toarray()
+    H = (B.T @ sp.diags(np.concatenate(weight)) @ B).toarray()
+    if model == "Elastic":
+        T = sp.csr_matrix((np.concatenate(theta_vals), (np.concatenate(theta_rows), np.concatenate(theta_cols))), shape=(n * l, bond)) @ B
+        H += (bulk - 5.0 * shear / 3.0) * (T.T @ T).toarray()
     rest, her = H[1:, 1:], H[0, 1:]
     eff = H[0, 0] - her @ np.linalg.lstsq(rest, her, rcond=None)[0]
-    return float(eff / (n * n))
+    return float(eff / (n * l))
 
 
 def surface_coefficient(bulk: float, shear: float, ratio: float, n: int, modulus: float) -> float:
