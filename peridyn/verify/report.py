@@ -124,7 +124,7 @@ def _table(entry: dict[str, Any]) -> list[str]:
 
 
 def write_report(state: dict[str, Any], out: Path, *, figures: bool = True) -> Path:
-    """Write ``out/report.md`` (and ``out/<problem>.png`` per curve problem when matplotlib is
+    """Write ``out/report.md`` (and ``out/<problem>.png`` per plotted problem when matplotlib is
     installed; one log line saying how to get them otherwise). Returns the report's path."""
     out = Path(out)
     plt = pyplot() if figures else None
@@ -166,10 +166,10 @@ def write_report(state: dict[str, Any], out: Path, *, figures: bool = True) -> P
                      for meth, r in entry["rates"].items()]
             if rates:
                 lines += [f"Fitted rate of the {entry['error']} in {entry['size']} (least squares, log-log): " + "; ".join(rates) + ".", ""]
-            if plt is not None:
-                png = out / f"{entry['name']}.png"
-                if figure(entry, png, plt):
-                    lines += [f"![{entry['name']}: error against wall time]({png.name})", ""]
+        if plt is not None and entry.get("plotted", entry["kind"] == "curve"):
+            png = out / f"{entry['name']}.png"
+            if figure(entry, png, plt):
+                lines += [f"![{entry['name']}: error against wall time]({png.name})", ""]
         lines += ["| check | method | value | band | result |", "|---|---|---|---|---|"]
         for c in entry["checks"]:
             lines.append(f"| {_cell(c['what'])} | {_cell(c['method'])} | {_cell(c['shown']) if c.get('shown') else _fmt(c['value'])} | {c['band']} | {_result(c)} |")
