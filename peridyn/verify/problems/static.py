@@ -100,7 +100,8 @@ class StaticModulus(Problem):
 
     def ladder(self, method: str, quick: bool) -> list[float]:
         if method == "Elastic Correspondence":
-            return [2.015, 2.515, 3.015] if quick else [2.015, 2.515, 3.015, 4.015]
+            # its error is the strain's nonlinearity, the same at every ratio: --quick leaves out 3.015 (about 3 s)
+            return [2.015, 2.515] if quick else [2.015, 2.515, 3.015, 4.015]
         return [2.515, 3.015, 4.015] if quick else [2.515, 3.015, 4.015, 5.015, 6.015]
 
     def measure(self, method: str, resolution: float, quick: bool) -> Measurement:
