@@ -118,17 +118,17 @@ class DensityContrast(Problem):
     computes = (
         f"A row of points of spacing h = {H * 1e3:g} mm along x (volume h^3 each), `Elastic Bond Based` (K = 1 GPa, horizon "
         f"{BONDS + 0.5:g} h): {BONDS} grip points held at u = 0, a light bar of N points (rho = {RHO:g} kg/m^3, block 1) and a "
-        f"heavy block of N/4 points (rho = {CONTRAST:g} x {RHO:g} kg/m^3, block 2) bonded to it, its far end free. The heavy "
+        f"heavy block of {HEAVY} points (rho = {CONTRAST:g} x {RHO:g} kg/m^3, block 2) bonded to it, its far end free. The heavy "
         f"points start at {V0:g} m/s along x, everything else at rest; velocity Verlet at a fixed step of {SAFETY:g} times the "
         "set-up estimate (set by the light bar: the heavy block's own waves are 100 times slower) until the heavy block's mean "
-        "displacement has come back through zero, read at every step. The half period T/2 is that zero crossing (linear "
-        "interpolation between the steps); omega = pi / (T/2). Error: |omega / omega_closed - 1|."
+        "velocity, read at every step, has passed through zero: a quarter period T/4 (linear interpolation between the "
+        "steps); omega = (pi / 2) / (T/4). Error: |omega / omega_closed - 1|."
     )
     reference = (
         "The closed form: a bar fixed at x = 0, light over 0 < x < L1 (L1 = N h + h/2, from the last grip point to the blocks' "
-        "joint, N h from the first free point), heavy over L1 < x < L1 + L2 (L2 = N h / 4), its end free, one modulus E: "
+        "joint, N h from the first free point), heavy over L1 < x < L1 + L2 (L2 = 4 h), its end free, one modulus E: "
         "k1 cot(k1 L1) = k2 tan(k2 L2), k_i = omega / c_i, c_i = sqrt(E / rho_i) (about the spring and mass "
-        "sqrt(E / (rho_2 L1 L2)), the bar's own mass 1e-4 of the block's). E is the row's long-wave modulus from the bond "
+        "sqrt(E / (rho_2 L1 L2)), the bar's own mass N / 4e4 of the block's). E is the row's long-wave modulus from the bond "
         "sum, c V h B (B + 1) / 2 (B = 3 bonds each way, c = 18 K / (pi delta^4)): it is the discrete model's, so that the "
         "error is the two-block problem's, not the lattice's (`wave-speed` holds the lattice's E). Where the row's fixed end "
         "lies is uncertain by about a spacing, so the error falls as h / L1. Beside it, the same semi-discrete chain solved "
