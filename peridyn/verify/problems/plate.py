@@ -25,7 +25,11 @@ MATERIALS: dict[str, dict[str, Any]] = {
     "Elastic, 3D on one layer": {"Material Model": "Elastic", "Density": 7800.0, "Bulk Modulus": K, "Shear Modulus": G},
     "Elastic Bond Based, plane stress": {"Material Model": "Elastic Bond Based", "Density": 2440.0, "Young's Modulus": E_BB,
                                          "Plane Stress": True},
+    "Elastic Correspondence, 3D on one layer": {"Material Model": "Elastic Correspondence", "Density": 7800.0, "Bulk Modulus": K,
+                                                "Shear Modulus": G, "Hourglass Coefficient": 0.02},
 }
+#: the method whose answer is a diagnosis: on one layer the shape tensor is singular
+DIAGNOSED = "Elastic Correspondence, 3D on one layer"
 
 
 class OneLayerPlate(Problem):
@@ -51,8 +55,8 @@ class OneLayerPlate(Problem):
         "n odd), gauge 4 horizons, grips 2 horizons pulled apart by u_y = y eps t (eps = 1e-4), horizon 1 mm, one load step "
         "of `NOXQuasiStatic` (matrix-free). E = F / (A eps), A = n h x h. Two plates: LPS `Elastic` (K = 160 GPa, G = 80 GPa, "
         f"E0 = {E0 / 1e9:.1f} GPa) on one layer, a 3D material; `Elastic Bond Based` with `Plane Stress` (E = 72 GPa, nu = "
-        "1/3, height h). Correspondence needs no row: on one layer its shape tensor is singular and the run stops with "
-        "exit 3 naming it (checked by hand, as in Peridigm)."
+        "1/3, height h). `Elastic Correspondence` on one layer: its shape tensor is singular, and the run must stop "
+        "with that diagnosis (an InstabilityError, exit 3 on the command line, naming the shape tensor), as Peridigm does."
     )
     reference = (
         "The continuum: a plate in plane stress has the in-plane Young's modulus E (E0 for the LPS deck, 72 GPa for the "
@@ -69,7 +73,7 @@ class OneLayerPlate(Problem):
     )
 
     def ladder(self, method: str, quick: bool) -> list[float]:
-        if quick:
+        if quick or method == DIAGNOSED:
             return [3.015]
         return [2.015, 3.015, 4.015] if MATERIALS[method]["Material Model"] == "Elastic" else [3.015, 4.015, 5.015]
 
@@ -78,6 +82,8 @@ class OneLayerPlate(Problem):
         from ...testing.tensile import tensile_bar
 
         t0 = time.perf_counter()
+        if method == DIAGNOSED:
+            return self.diagnosis(resolution, t0)
         mat = dict(MATERIALS[method])
         if mat["Material Model"] == "Elastic Bond Based":
             mat["Height"] = HORIZON / resolution
@@ -100,7 +106,28 @@ class OneLayerPlate(Problem):
                                   "wall (s)": time.perf_counter() - t0}
         return Measurement(abs(modulus / continuum - 1.0), steps=int(st.get("force_evaluations") or 1), values=values)
 
+    def diagnosis(self, resolution: float, t0: float) -> Measurement:
+        """The correspondence strip: how its run ends ("diagnosed": stopped naming the singular shape tensor)."""
+        from ...core.errors import PeridynError
+        from ...testing import build_simulation
+        from ...testing.tensile import tensile_bar
+
+        outcome, message = "ran to the end", ""
+        with tempfile.TemporaryDirectory(prefix="peridyn-verify-plate-") as d, quiet("peridyn.engine", "peridyn.geometry", "peridyn.solvers"):
+            bar = tensile_bar(MATERIALS[DIAGNOSED], d, ratio=resolution, horizon=HORIZON, section=SECTION, strain=STRAIN, layers=1)
+            try:
+                sim = build_simulation(bar.tree, directory=d)
+                run_sections(sim)
+            except PeridynError as exc:  # the answer this row asks for
+                message = str(exc).splitlines()[0][:200]
+                outcome = "diagnosed" if "shape tensor" in message and "singular" in message else f"stopped: {type(exc).__name__}"
+        return Measurement(None, values={"outcome": outcome, "message": message, "wall (s)": time.perf_counter() - t0})
+
     def checks(self, method: str, points: list[dict[str, Any]], quick: bool) -> list[Check]:
+        if method == DIAGNOSED:
+            return [Check(self.name, method, f"the run at delta/h = {p['resolution']:g} stops naming the singular shape tensor",
+                          1.0 if p["values"].get("outcome") == "diagnosed" else 0.0, 1.0, 1.0, shown=p["values"].get("outcome"),
+                          expect="diagnosed") for p in points]
         out = []
         for p in points:
             at, v = f"at delta/h = {p['resolution']:g}", p["values"]
