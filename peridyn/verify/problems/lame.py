@@ -69,7 +69,7 @@ class LameCylinder(Problem):
         "(nu = 0.499) of the strain, and the mean stress K tr(eps) amplifies any error of the computed trace by K / G = 50 "
         "or 500. The radial field's displacement is fixed by the collar alone (u = C r + D / r for any moduli): it tests "
         "the solve at K / G = 50 and 500 (measured max error 0.84 %, 0.43 %, 0.27 % of u_max at a/h = 6, 8, 10 for "
-        "nu = 0.49, 1.5 %, 0.67 %, 0.52 % for nu = 0.499, falling as h^2; band 2 % at every point). The stresses "
+        "nu = 0.49, falling as h^2, and 1.5 %, 0.67 %, 0.52 % for nu = 0.499; band 2 % at every point). The stresses "
         "test the moduli: the deviator is 2 G times Lamé's, so its amplitude sees G one for one (measured 1 - 7e-4 .. "
         "1 + 7e-4, band 1 %); the in-plane mean is K tr(eps) + ... , a 5 % error of K moves it 3.5 .. 6 % (nu = 0.49, "
         "measured). Its band, 2.5 %, is the smallest that holds the discretisation's measured error at nu = 0.49 (-1.4 %, "
