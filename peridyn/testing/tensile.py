@@ -114,6 +114,7 @@ def tensile_bar(
     grip: float = 2.0,
     strain: float = 0.005,
     solver: dict[str, Any] | None = None,
+    layers: int | None = None,
 ) -> TensileBar:
     """Write the bar's text-file mesh into ``directory`` and return its deck.
 
@@ -121,6 +122,8 @@ def tensile_bar(
     ratio: horizon / spacing. horizon: the horizon (L). section, gauge, grip: the section width,
     gauge-section length and grip length in horizons. strain: the grips' applied strain at t = 1.
     solver: the ``Solver`` section; by default one QuasiStatic load step to t = 1.
+    layers: points through the section along z (odd; 1 for a plate of one layer), by default as
+    many as across x (a square section).
     """
     directory = Path(directory)
     h = horizon / ratio
@@ -130,10 +133,14 @@ def tensile_bar(
     n_gauge = max(2, int(round(gauge * ratio)))
     ny = n_gauge + 2 * n_grip
     across = (np.arange(n) - (n - 1) / 2) * h
+    nz = n if layers is None else int(layers)
+    if nz < 1 or nz % 2 == 0:
+        raise ValueError(f"layers must be odd and at least 1 (the centre plane z = 0 holds points), not {layers!r}")
+    through = (np.arange(nz) - (nz - 1) / 2) * h
     along = (np.arange(ny) - (ny - 1) / 2) * h
-    y, x, z = np.meshgrid(along, across, across, indexing="ij")
+    y, x, z = np.meshgrid(along, across, through, indexing="ij")
     x, y, z = x.ravel(), y.ravel(), z.ravel()
-    row = np.repeat(np.arange(ny), n * n)
+    row = np.repeat(np.arange(ny), n * nz)
     block = np.where(row < n_grip, 1, np.where(row >= ny - n_grip, 3, 2))
     lines = [f"{a:.17g} {b:.17g} {c:.17g} {k} {h**3:.17g}" for a, b, c, k in zip(x, y, z, block)]
     (directory / "tensile_bar.txt").write_text("# x y z block volume\n" + "\n".join(lines) + "\n")
@@ -184,4 +191,4 @@ def tensile_bar(
             "Output Variables": {"Displacement": True, "Force": True, **{k: True for k in GAUGE_LABELS + REACTION_LABELS}},
         },
     }
-    return TensileBar(tree=tree, spacing=h, points_across=n, num_points=int(x.size), section_area=float((n * h) ** 2))
+    return TensileBar(tree=tree, spacing=h, points_across=n, num_points=int(x.size), section_area=float(n * h * nz * h))

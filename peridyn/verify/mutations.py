@@ -15,7 +15,13 @@ MUTATIONS: tuple[Mutation, ...] = (
         (S(_EL, "return ((((3.0 * w) * keep) * z) * e) * volume[j]", "return ((((2.9 * w) * keep) * z) * e) * volume[j]"),
          S(_EL, "return ((3.0 * z) * (L - z)) * P[j, 5]", "return ((2.9 * z) * (L - z)) * P[j, 5]"),
          S(_EL, "return ((((3.0 * w) * (1.0 - d)) * z) * (L - z)) * P[j, 5]", "return ((((2.9 * w) * (1.0 - d)) * z) * (L - z)) * P[j, 5]")),
-        ("wave-speed", "dispersion", "lattice-constants", "poisson-ratio", "static-modulus", "confined-compression"),
+        ("wave-speed", "dispersion", "lattice-constants", "poisson-ratio", "static-modulus", "confined-compression", "manufactured-lps"),
+    ),
+    Mutation(
+        "block-density-x0.9", "every block after the first given 0.9 times its density in the points' masses",
+        (S("engine/simulation.py", "densities = np.array([blk.density for blk in self.blocks])",
+           "densities = np.array([blk.density * (1.0 if b == 0 else 0.9) for b, blk in enumerate(self.blocks)])"),),
+        ("density-contrast",), area="solvers",
     ),
     Mutation(
         "critical-step-x1.7", "the critical time-step estimate 1.7 times too large",
@@ -35,12 +41,12 @@ MUTATIONS: tuple[Mutation, ...] = (
     Mutation(
         "lps-shear-x0.95", "the LPS deviatoric coefficient 15 mu / m 5 % too small (`Elastic`)",
         (S(_EL, "    a = (15.0 * mu) / m\n", "    a = (14.25 * mu) / m\n"),),
-        ("wave-speed", "dispersion", "lattice-constants", "poisson-ratio", "static-modulus"),
+        ("wave-speed", "dispersion", "lattice-constants", "poisson-ratio", "static-modulus", "manufactured-lps", "one-layer-plate"),
     ),
     Mutation(
         "lps-bulk-x1.05", "the LPS bulk term 3 K / m 5 % too large (`Elastic`)",
         (S(_EL, "return a, theta * ((3.0 * K) / m - a / 3.0)", "return a, theta * ((3.15 * K) / m - a / 3.0)"),),
-        ("wave-speed", "dispersion", "lattice-constants", "poisson-ratio", "static-modulus"),
+        ("wave-speed", "dispersion", "lattice-constants", "poisson-ratio", "static-modulus", "manufactured-lps"),
     ),
     Mutation(
         "bond-based-micromodulus-x1.05", "the 3D bond-based micromodulus 18 K / (pi delta^4) 5 % too large",
@@ -50,13 +56,19 @@ MUTATIONS: tuple[Mutation, ...] = (
     Mutation(
         "bond-based-2d-micromodulus-x1.05", "the 2D bond-based micromodulus 12 K / (pi h delta^3) 5 % too large",
         (S("materials/elastic_bond_based.py", "self.c = (12.0 * self.K)", "self.c = (12.6 * self.K)"),),
-        ("lattice-constants", "j-integral", "kalthoff-winkler", "griffith"),
+        ("lattice-constants", "j-integral", "kalthoff-winkler", "griffith", "one-layer-plate"),
     ),
     Mutation(
         "correspondence-shear-x1.1", "the correspondence elastic stress with G 10 % too large",
         (S("materials/correspondence/stress.py", "store9(sigma_NP1, i, _trial_stress(load9(sigma_N, i), de, dth, K, G))",
            "store9(sigma_NP1, i, _trial_stress(load9(sigma_N, i), de, dth, K, 1.1 * G))"),),
-        ("poisson-ratio", "static-modulus", "kirsch"),
+        ("poisson-ratio", "static-modulus", "kirsch", "lame-cylinder"),
+    ),
+    Mutation(
+        "correspondence-bulk-x1.05", "the correspondence elastic stress with K 5 % too large",
+        (S("materials/correspondence/stress.py", "store9(sigma_NP1, i, _trial_stress(load9(sigma_N, i), de, dth, K, G))",
+           "store9(sigma_NP1, i, _trial_stress(load9(sigma_N, i), de, dth, 1.05 * K, G))"),),
+        ("lame-cylinder",),
     ),
     Mutation(
         "plastic-yield-x1.1", "the yield stress of `Elastic Plastic` 10 % too large",

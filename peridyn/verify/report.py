@@ -95,8 +95,13 @@ def figure(entry: dict[str, Any], path: Path, plt) -> bool:
         ax.set_ylabel(entry["error"])
         ax.set_title(f"{entry['name']}: {entry['error']} against wall time\n(labels: {entry['resolution']})", fontsize=9)
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8)
-        fig.tight_layout()
+        if len(ax.get_lines()) > 8:  # many curves (rigid-rotation's materials): the legend beside the axes
+            fig.set_size_inches(10.0, 4.2)
+            ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.02, 1.0), ncol=2)
+            fig.subplots_adjust(left=0.1, right=0.55, bottom=0.12, top=0.87)
+        else:
+            ax.legend(fontsize=8)
+            fig.subplots_adjust(left=0.17, right=0.97, bottom=0.12, top=0.87)  # fixed margins: tight_layout doubled each figure's time
         fig.savefig(path, dpi=110)
     plt.close(fig)
     return drawn
@@ -124,7 +129,7 @@ def _table(entry: dict[str, Any]) -> list[str]:
 
 
 def write_report(state: dict[str, Any], out: Path, *, figures: bool = True) -> Path:
-    """Write ``out/report.md`` (and ``out/<problem>.png`` per curve problem when matplotlib is
+    """Write ``out/report.md`` (and ``out/<problem>.png`` per plotted problem when matplotlib is
     installed; one log line saying how to get them otherwise). Returns the report's path."""
     out = Path(out)
     plt = pyplot() if figures else None
@@ -166,10 +171,10 @@ def write_report(state: dict[str, Any], out: Path, *, figures: bool = True) -> P
                      for meth, r in entry["rates"].items()]
             if rates:
                 lines += [f"Fitted rate of the {entry['error']} in {entry['size']} (least squares, log-log): " + "; ".join(rates) + ".", ""]
-            if plt is not None:
-                png = out / f"{entry['name']}.png"
-                if figure(entry, png, plt):
-                    lines += [f"![{entry['name']}: error against wall time]({png.name})", ""]
+        if plt is not None and entry.get("plotted", entry["kind"] == "curve"):
+            png = out / f"{entry['name']}.png"
+            if figure(entry, png, plt):
+                lines += [f"![{entry['name']}: error against wall time]({png.name})", ""]
         lines += ["| check | method | value | band | result |", "|---|---|---|---|---|"]
         for c in entry["checks"]:
             lines.append(f"| {_cell(c['what'])} | {_cell(c['method'])} | {_cell(c['shown']) if c.get('shown') else _fmt(c['value'])} | {c['band']} | {_result(c)} |")

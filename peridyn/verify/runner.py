@@ -228,7 +228,7 @@ class Run:
     def _entry(self, p: Problem) -> dict[str, Any]:
         curves = p.curves(self.device)
         unfitted = {m: p.unfitted[base_method(m)] for m in curves if base_method(m) in p.unfitted}
-        return {"name": p.name, "title": p.title, "unfitted": unfitted, "kind": p.kind, "computes": p.computes, "reference": p.reference,
+        return {"name": p.name, "title": p.title, "unfitted": unfitted, "kind": p.kind, "plotted": p.plotted, "computes": p.computes, "reference": p.reference,
                 "resolution": p.resolution_name, "size": p.size_name, "error": p.error_name, "methods": list(curves),
                 "points": [], "rates": {}, "checks": [], "peridigm": [dict(q) for q in p.peridigm],
                 "companions": {k: list(v) for k, v in p.companions.items()}}

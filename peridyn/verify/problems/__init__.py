@@ -9,6 +9,7 @@ from .contact_penalty import HertzPenalty
 from .confined import ConfinedCompression
 from .contact_step import ContactStep
 from .critical_stretch import CriticalStretch
+from .contrast import DensityContrast
 from .base import Check, Measurement, Problem
 from .dispersion import Dispersion
 from .dynamics import Stability, VerletEnergy
@@ -18,9 +19,12 @@ from .experiments import KalthoffWinkler
 from .families import Diffusion, PlasticityUniaxial, ViscoelasticRelaxation
 from .griffith import Griffith
 from .j_integral import JIntegral
+from .lame import LameCylinder
 from .lattice import LatticeConstants
+from .manufactured import ManufacturedLPS
 from .newmark import NewmarkEnergy
 from .parallel import ParallelAgreement
+from .plate import OneLayerPlate
 from .rotation import RigidRotation
 from .static import StaticModulus
 
@@ -28,7 +32,7 @@ from .static import StaticModulus
 PROBLEMS: dict[str, type[Problem]] = {
     cls.name: cls
     for cls in (
-        WaveSpeed, Dispersion, LatticeConstants, ForceConvergence, VerletEnergy, NewmarkEnergy, Stability, ContactStability, ContactStep, ParallelAgreement, ExtremeCases, RigidRotation, ConfinedCompression, StaticModulus,
+        WaveSpeed, Dispersion, LatticeConstants, ForceConvergence, VerletEnergy, NewmarkEnergy, Stability, ContactStability, ContactStep, ParallelAgreement, ExtremeCases, RigidRotation, ConfinedCompression, ManufacturedLPS, LameCylinder, DensityContrast, OneLayerPlate, StaticModulus,
         PoissonRatio, Kirsch, DeltaConvergence, CriticalStretch, Griffith, JIntegral, KalthoffWinkler, GlassBranching, BrazilianDisk, Diffusion, ViscoelasticRelaxation, PlasticityUniaxial,
         Hertz, HertzPenalty,
     )

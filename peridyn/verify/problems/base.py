@@ -120,8 +120,12 @@ class Problem:
 
     name: ClassVar[str]
     title: ClassVar[str]
-    #: "curve": error against resolution, fitted rate and a figure; "table": a table only
+    #: "curve": error against resolution, fitted rate and a figure; "table": a table (and a figure of
+    #: error against wall time when ``plotted``)
     kind: ClassVar[str] = "curve"
+    #: whether the report draws the points' error against their wall time: every curve, and a
+    #: table whose error is an error (not a ratio to a band, a count or an outcome)
+    plotted: ClassVar[bool] = True
     #: markdown: what is computed
     computes: ClassVar[str]
     #: markdown: the exact or reference answer and where it comes from

@@ -134,8 +134,17 @@ class GlassBranching(Problem):
     T_END = 46.0e-6  #: s (Ha & Bobaru's run)
     M = 3.0  #: horizon / spacing
     SAFETY = 0.8  #: time step / the set-up estimate
-    #: bands: the crack's mean speed / Rayleigh speed while it grows from 5 to 20 mm, before it branches
-    SPEED_BAND = (0.35, 0.75)
+    #: the measured crack speed (m/s) before branching: Bowden et al. (1967) 1580 m/s, the value Ha & Bobaru
+    #: (2010) compare with; the band is +-5 % about it, which holds the ~1500 m/s of Döll (1975) and Schardin's
+    #: terminal speed in soda-lime glass (no error bars are quoted: this is the spread of the measurements)
+    MEASURED_SPEED = 1580.0
+    SPEED_BAND = (1500.0, 1660.0)
+    SPEED_MISS = (
+        "the bond-based plane-stress model runs 14 % (dx = 0.5 mm) and 20 % (0.25 mm) slower than the experiment and "
+        "moves away from it as dx falls: the horizon is held at 3.015 dx, so delta shrinks with dx and the process zone "
+        "with it. What it would take is not known yet: a delta held fixed while dx falls (m-convergence), glass's own "
+        "nu = 0.22 (the bond-based plane-stress solid has 1/3; an LPS or correspondence plate), and a fracture energy "
+        "with the measured rate dependence are the candidates, none tried here")
     #: the branch point must lie ahead of the pre-crack's tip by at least this (m) and the cracks reach this far
     BRANCH_AFTER = 0.005
     ASYMMETRY_BAND = 0.05
@@ -157,13 +166,15 @@ class GlassBranching(Problem):
         f"speed here is that of the model's own solid (bond-based plane stress, nu = 1/3): {GL_RAYLEIGH:.0f} m/s. Ha & "
         "Bobaru's bond-based runs give about 1700 m/s before branching and one symmetric branch, with more branches at "
         "higher tractions. Measured here: 1364 m/s (0.45 c_R) and a branch point at x = 69 mm at dx = 0.5 mm, 1257 m/s "
-        "(0.41 c_R) and 65 mm at dx = 0.25 mm, two cracks symmetric to the last point in both. Bands, every point: mean speed 0.35 .. 0.75 c_R; two cracks at the end, the branch point at "
+        "(0.41 c_R) and 65 mm at dx = 0.25 mm, two cracks symmetric to the last point in both. Bands, every point: mean speed "
+        "1500 .. 1660 m/s (the measurements' spread about 1580 m/s; a **known miss**, reported and not counted: the model is "
+        "14 .. 20 % slow and slower with refinement); two cracks at the end, the branch point at "
         "least 5 mm ahead of the pre-crack's tip; at most 5 % of the damaged points without a damaged mirror image. "
-        "A traction 4 times smaller grows no crack in 46 us (no speed, no branch: FAIL)."
+        "A traction 4 times smaller grows no crack in 46 us (no branch: FAIL)."
     )
     resolution_name = "40 mm / dx"
     size_name = "dx/40 mm"
-    error_name = "|speed / c_R - 0.5|"
+    error_name = "|speed / 1580 m/s - 1|"
     methods = ("bond-based, plane stress",)
     method_materials = {"bond-based, plane stress": "Elastic Bond Based"}
 
@@ -208,7 +219,7 @@ class GlassBranching(Problem):
         r = self.run(resolution)
         speed = r.history.speed(0.005, 0.020)
         ratio = speed / GL_RAYLEIGH
-        return Measurement(abs(ratio - 0.5), size=1.0 / resolution, steps=r.steps, values={
+        return Measurement(abs(speed / self.MEASURED_SPEED - 1.0), size=1.0 / resolution, steps=r.steps, values={
             "points": r.points, "dx (mm)": 1e3 * 2 * GL_HALF_HEIGHT / resolution, "dt (s)": r.dt,
             "crack speed (m/s)": speed, "crack speed / c_R": ratio, "tip at the end (mm)": 1e3 * r.tip,
             "branch point (mm)": 1e3 * r.branch_x, "cracks behind the tip": r.branches_end,
@@ -219,8 +230,8 @@ class GlassBranching(Problem):
         num = lambda v: math.nan if v is None else float(v)  # noqa: E731 - JSON's null is NaN
         for p in points:
             v, at = p["values"], f"{self.resolution_name} = {p['resolution']:g}"
-            out.append(Check(self.name, method, f"mean crack speed / Rayleigh speed at {at}", num(v["crack speed / c_R"]),
-                             *self.SPEED_BAND))
+            out.append(Check(self.name, method, f"mean crack speed (m/s) against the measured ~{self.MEASURED_SPEED:g} at {at}",
+                             num(v["crack speed (m/s)"]), *self.SPEED_BAND, known=self.SPEED_MISS))
             out.append(Check(self.name, method, f"cracks 2 delta behind the final tip at {at}", num(v["cracks behind the tip"]),
                              2.0, 2.0, expect="2"))
             out.append(Check(self.name, method, f"branch point ahead of the pre-crack's tip (mm) at {at}",

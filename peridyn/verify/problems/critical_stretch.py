@@ -35,6 +35,7 @@ class CriticalStretch(Problem):
     name = "critical-stretch"
     title = "Critical Stretch: the bonds broken under a homogeneous stretch, bond by bond"
     kind = "table"
+    plotted = False  # a count of misclassified bonds, zero when right
     computes = (
         f"A cube of 6^3 points (spacing 1 m, horizon = delta/h spacings; 8^3 and more ratios without --quick) with the "
         f"`Critical Stretch` damage model, s_c = {S_C:g}, its positions set to y = F x, F = diag(1 + s, 1, 1) (no solver: "

@@ -269,6 +269,7 @@ class ExtremeCases(Problem):
     name = "extreme-cases"
     title = "Stiff and extreme decks: a converged answer or a clear diagnosis"
     kind = "table"
+    plotted = False  # an outcome per case, no error
     computes = (
         "Each case is a small deck written here and run as `peridyn run` in a subprocess (time limit "
         f"{TIMEOUT:g} s); its outcome is classified. Cubes of n^3 points (n = 5 with --quick, 7 otherwise), "

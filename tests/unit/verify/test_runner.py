@@ -125,6 +125,21 @@ def test_report_with_matplotlib_draws_one_figure_per_curve_problem(tmp_path):
     assert "![power: error against wall time](power.png)" in (tmp_path / "report.md").read_text()
 
 
+def test_a_table_problem_with_an_error_has_its_figure_and_one_without_has_none(tmp_path):
+    pytest.importorskip("matplotlib")
+
+    class Table(Power):
+        name, kind, rate_band, finest_band = "table", "table", {}, {}
+
+    class Ratio(Table):
+        name, plotted = "ratio", False
+
+    Run([Table(), Ratio()], tmp_path, quick=True).run()
+    report = (tmp_path / "report.md").read_text()
+    assert (tmp_path / "table.png").stat().st_size > 1000 and "![table: error against wall time](table.png)" in report
+    assert not (tmp_path / "ratio.png").exists() and "(ratio.png)" not in report
+
+
 def test_peridigms_own_point_is_in_the_results_the_report_and_the_figure(tmp_path):
     class WithPeridigm(Power):
         peridigm = ({"method": "a", "error": 0.003, "wall (s)": 50.0, "what": "its example, one core"},)
