@@ -27,8 +27,11 @@ from ...core.influence import ONE
 
 log = logging.getLogger("peridyn.solver")
 
-#: checks per solver section (and one at its end): the strain check is one pass over the bonds
+#: checks per solver section (and one at its end): the strain check is one pass over the bonds,
+#: about a force evaluation's work, so at most one every MIN_STRIDE steps (under 1 % of a
+#: section's work; a section shorter than that is checked at its end)
 CHECKS_PER_SECTION = 10
+MIN_STRIDE = 100
 
 
 @njit(cache=True, parallel=True)
@@ -39,10 +42,11 @@ def bond_strain_kernel(start, stop, offsets, neighbors, x, y, damage, point_dama
     has_d = damage.shape[0] > 0
     has_p = point_damage.shape[0] > 0
     for i in prange(start, stop):
-        worst = 0.0
         if has_p and point_damage[i] > 0.5:
-            out[i - start] = worst
+            out[i - start] = 0.0
             continue
+        longest = 1.0  # the extremes of (|y_j - y_i| / |x_j - x_i|)^2: one division a bond, two roots a point
+        shortest = 1.0
         for b in range(offsets[i], offsets[i + 1]):
             if has_d and damage[b] >= 1:
                 continue
@@ -55,10 +59,12 @@ def bond_strain_kernel(start, stop, offsets, neighbors, x, y, damage, point_dama
                 r0 += d0 * d0
                 r += d * d
             if r0 > 0.0:
-                s = abs(math.sqrt(r) / math.sqrt(r0) - 1.0)
-                if s > worst:
-                    worst = s
-        out[i - start] = worst
+                q = r / r0
+                if q > longest:
+                    longest = q
+                elif q < shortest:
+                    shortest = q
+        out[i - start] = max(math.sqrt(longest) - 1.0, 1.0 - math.sqrt(shortest))
 
 
 def family_gradients(sim: Any, lo: int, hi: int, damage: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -104,7 +110,7 @@ class RangeWatch:
         self.sim = sim
         #: the step's placement, whose positions and damage are brought to the host to be measured
         self.where = where
-        self.stride = max(1, steps // CHECKS_PER_SECTION)
+        self.stride = max(MIN_STRIDE, steps // CHECKS_PER_SECTION)
         self.steps = steps
         self.blocks = [blk for blk in sim.blocks
                        if blk.material.small_strain_limit is not None or blk.material.small_rotation_limit is not None]
