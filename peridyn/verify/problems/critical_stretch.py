@@ -12,7 +12,6 @@ bond by bond, with a relative margin EPS = 1e-6 that is far above round-off and 
 error worth seeing (a critical stretch 10 % off moves every threshold by 10 %)."""
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
