@@ -195,12 +195,14 @@ class OutputManager:
                 names.append(name)
         return names
 
+    def global_only(self, entry: "OutputEntry") -> bool:
+        """Whether every variable of an Output section is global (it writes a history file)."""
+        return bool(entry.variables) and all(self.variables[n].kind == "global" for n in entry.variables)
+
     def file_name(self, entry: "OutputEntry") -> str:
         """The file an Output section writes: ``NAME.h`` when all its variables are global,
         else the Exodus ``NAME.e``."""
-        names = dict.fromkeys(entry.variables)
-        global_only = bool(names) and all(self.variables[n].kind == "global" for n in names)
-        return f"{entry.filename}{'.h' if global_only else '.e'}"
+        return f"{entry.filename}{'.h' if self.global_only(entry) else '.e'}"
 
     def field_specs(self) -> list[FieldSpec]:
         """Fields the outputs need allocated."""
@@ -240,7 +242,6 @@ class OutputManager:
         for obj in self.computes.values():
             if id(obj) in wanted:
                 obj.compute(self.sim)
-
 
 
 class OutputFiles:
@@ -332,7 +333,7 @@ class OutputWriter:
         self._broken = False  # a write to the file failed (see _writing)
         self.names = list(dict.fromkeys(entry.variables))  # a name listed twice is written once
         self.vars = [manager.variables[n] for n in self.names]
-        self.global_only = bool(self.vars) and all(v.kind == "global" for v in self.vars)
+        self.global_only = manager.global_only(entry)
         self.path = sim.output_dir / manager.file_name(entry)
         self._writer = None
         self.frames = 0

@@ -67,10 +67,10 @@ def agree_on_input(comm, action: Callable[[], T]) -> T:
 
 def run_sections(sim: Simulation, state: SolverState | None = None, run: RunServices | None = None) -> SolverState:
     """Run the deck's solver sections in deck order with the run's services ``run`` (None: as
-    :func:`run_section`), each from the solver state the one
-    before it left (the first from ``state``: a checkpoint's, or a fresh one), skipping those a
-    loaded checkpoint has done (``run.checkpoints``) and writing the end-of-section
-    checkpoints; returns the last section's state. The caller closes the output files."""
+    :func:`run_section`), each from the solver state the one before it left (the first from
+    ``state``: a checkpoint's, or a fresh one), skipping those a loaded checkpoint has done
+    (``run.checkpoints``) and writing the end-of-section checkpoints; returns the last
+    section's state. The caller closes the output files."""
     state = state if state is not None else SolverState()
     run = run if run is not None else RunServices.of(sim)
     checkpoints = run.checkpoints
