@@ -17,7 +17,6 @@ from __future__ import annotations
 import importlib.util
 import json
 import logging
-import math
 import os
 import re
 import signal
@@ -204,22 +203,33 @@ def mesh_geo(path: Path, mesh_size: float | None, folder: Path) -> Path:
     return _outcome(proc.returncode, folder, path, said, limit, memory, out)
 
 
+def _note_estimate(folder: Path, path: Path, limit: float, memory: float) -> None:
+    """Log the child's element estimate, with a warning when it is past the limit (only with the
+    limits off: the child refuses otherwise)."""
+    if not (folder / ESTIMATE).exists():
+        return
+    estimate = json.loads((folder / ESTIMATE).read_text())
+    if "elements" in estimate:
+        _log.debug("%s: size %g (%s), up to about %.3g tetrahedra", path.name, estimate["size"], estimate["source"], estimate["elements"])
+        if estimate["elements"] > limit:
+            _log.warning("%s (%s is set: meshing anyway)", _too_large(estimate, limit, memory, path), NO_LIMITS_ENV)
+
+
 def _watch(proc: subprocess.Popen, path: Path, folder: Path, memory: float, limit: float, refuse: bool, start: float) -> bool:
     """Wait for the child; True when it was killed for using too much memory."""
     estimated, noted = False, start
     while True:
         try:
             proc.wait(timeout=POLL_SECONDS)
-            return False
         except subprocess.TimeoutExpired:
             pass
+        else:
+            if not estimated:  # a small mesh can finish before the first poll sees its estimate
+                _note_estimate(folder, path, limit, memory)
+            return False
         if not estimated and (folder / ESTIMATE).exists():
             estimated = True
-            estimate = json.loads((folder / ESTIMATE).read_text())
-            if "elements" in estimate:
-                _log.debug("%s: size %g (%s), up to about %.3g tetrahedra", path.name, estimate["size"], estimate["source"], estimate["elements"])
-                if estimate["elements"] > limit:  # only with the limits off: the child refuses otherwise
-                    _log.warning("%s (%s is set: meshing anyway)", _too_large(estimate, limit, memory, path), NO_LIMITS_ENV)
+            _note_estimate(folder, path, limit, memory)
         if refuse and _rss(proc.pid) > MEMORY_SHARE * memory:
             proc.kill()
             proc.wait()

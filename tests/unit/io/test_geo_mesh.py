@@ -271,7 +271,11 @@ def test_the_limit_follows_the_memory(tmp_path, monkeypatch):
         read_mesh(tmp_path / "part.geo", mesh_size=0.02)
 
 
-def test_no_limits_meshes_past_the_limit_with_a_warning(tmp_path, monkeypatch, caplog):
+@pytest.mark.parametrize("poll", [geo_mesh.POLL_SECONDS, 5.0], ids=["polled", "done-before-the-first-poll"])
+def test_no_limits_meshes_past_the_limit_with_a_warning(tmp_path, monkeypatch, caplog, poll):
+    """The warning is given whether or not the parent polled while gmsh ran: a small mesh can be
+    done before the first poll."""
+    monkeypatch.setattr(geo_mesh, "POLL_SECONDS", poll)
     (tmp_path / "part.geo").write_text(BOX)
     monkeypatch.setattr(geo_mesh, "MAX_GEO_ELEMENTS", 100.0)
     monkeypatch.delenv("PERIDYN_NO_LIMITS", raising=False)
