@@ -29,10 +29,12 @@ CHUNK = {chunk}
 # update. A chunk per parallel iteration costs one call per CHUNK items. Without reference counting
 # (a law that does not allocate), as a bond loop's row: with it every array unpacked from ``args``
 # costs two atomic operations per item (a contact force over 968 points: 150 -> 5 us, one thread).
+# The index is masked to its non-negative range, as a bond loop's: numba then emits no
+# negative-index wraparound for the arrays the law indexes with it.
 @njit(error_model="numpy"{nrt})
 def rows(start, stop, args):
     for i in range(start, stop):
-        update(i, args)
+        update(i & 0x7FFFFFFFFFFFFFFF, args)
 
 
 @njit(cache=True, parallel={parallel}, error_model="numpy")
@@ -53,7 +55,8 @@ from numba import njit
 @njit(error_model="numpy"{nrt})
 def total(start, stop, args, out):
 {zero}
-    for i in range(start, stop):
+    for i0 in range(start, stop):
+        i = i0 & 0x7FFFFFFFFFFFFFFF
 {add}
 {store}
 

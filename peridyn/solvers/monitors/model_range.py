@@ -20,7 +20,7 @@ import math
 from typing import Any
 
 import numpy as np
-from numba import njit, prange
+from numba import njit, prange, uint64
 
 from ...computes.deformation_gradient import INTACT_DEFORMATION_GRADIENT
 from ...core.influence import ONE
@@ -47,10 +47,10 @@ def bond_strain_kernel(start, stop, offsets, neighbors, x, y, damage, point_dama
             continue
         longest = 1.0  # the extremes of (|y_j - y_i| / |x_j - x_i|)^2: one division a bond, two roots a point
         shortest = 1.0
-        for b in range(offsets[i], offsets[i + 1]):
+        for b in range(uint64(offsets[i]), uint64(offsets[i + 1])):  # unsigned: no wraparound code (as the bond loops)
             if has_d and damage[b] >= 1:
                 continue
-            j = neighbors[b]
+            j = neighbors[b] & 0x7FFFFFFF
             r0 = 0.0
             r = 0.0
             for c in range(3):
