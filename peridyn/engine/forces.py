@@ -46,6 +46,7 @@ def evaluate_forces(sim: Simulation) -> np.ndarray:
             continue  # computed with its group
         if not (blk.fused and blk.material.force_fused(blk.fused_view or blk.view, f)):
             pending.extend(blk.group)
+    reverse = parallel and _reverse_pass(sim, bool(pending))
     if pending:
         scalar = any(blk.material.force_state_kind == "scalar" for blk in pending)
         vector = any(blk.material.force_state_kind == "vector" for blk in pending)
@@ -71,9 +72,24 @@ def evaluate_forces(sim: Simulation) -> np.ndarray:
                 f[lo:hi] = 0.0
             if T is not None:
                 gather_vector_force_kernel(lo, hi, nl.offsets, nl.neighbors, in_offsets, in_bonds, sources, vol, T, f)
-        if parallel and sim.num_local > sim.num_owned:
-            sim.halo.reverse_sum(f)
+    if reverse:
+        if not pending:
+            f[sim.num_owned:] = 0.0  # this rank's fused kernels leave its ghost rows as they were
+        sim.halo.reverse_sum(f)
     return f
+
+
+def _reverse_pass(sim: Simulation, local: bool) -> bool:
+    """Whether this evaluation sends ghost rows' forces to their owners: where any rank gathers
+    force states (``local``: this rank does), every rank takes part, also one whose own blocks
+    were all computed fused (its points may be another rank's ghosts). Decided collectively at
+    the first evaluation; which blocks a rank gathers does not change during a run (the models
+    decide it from the bonds), which is checked."""
+    if sim.reverse_forces is None:
+        sim.reverse_forces = bool(sim.comm.allreduce_max(int(local)))
+    if local and not sim.reverse_forces:
+        raise RuntimeError("a rank gathers force states it did not gather at the first evaluation")
+    return sim.reverse_forces
 
 def _evaluate_forces_overlapped(sim: Simulation) -> np.ndarray:
     """``evaluate_forces`` under MPI with fused, row-local models: each phase first computes

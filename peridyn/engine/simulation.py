@@ -74,6 +74,7 @@ class Simulation:
         self.clock: Clock = SolverState()
         self.time_step = 0.0  #: the running solver's step (T), which rate-form models read
         self.bond_force_vector: np.ndarray | None = None  #: (num_bonds, 3) vector force states (non-ordinary materials only)
+        self.reverse_forces: bool | None = None  #: MPI: whether evaluations sum ghost forces into owners (engine.forces)
         self._rho: np.ndarray | None = None
         self.contact = None
         self.interfaces = None

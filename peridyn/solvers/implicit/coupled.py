@@ -108,7 +108,7 @@ class CoupledProblem:
         nl = sim.bonds
         hi = sim.num_local if sim.comm.size > 1 else sim.num_owned
         gather_bond_scalar_kernel(0, hi, nl.offsets, nl.neighbors, self._in_offsets, self._in_bonds, self._sources, s["Volume"], s[self.flow_field], out)
-        if sim.comm.size > 1 and sim.num_local > sim.num_owned:
+        if sim.comm.size > 1:  # also without ghosts of its own (see engine.forces)
             sim.halo.reverse_sum(out)
         return out
 
