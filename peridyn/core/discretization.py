@@ -47,6 +47,8 @@ class Discretization:
         mesh's ``Construct Interfaces``, PERIDIGM_MODELS.md §11).
     element_horizon_intersections: neighbors and partial volumes from the elements' overlap with
         each horizon (an Exodus mesh's ``Compute Element-Horizon Intersections``).
+    element_nodes: (n, 8, 3) float64 node positions of every point's hexahedron, where the reader
+        read them with the points (for element-horizon intersections), else None.
     """
 
     x: np.ndarray
@@ -60,6 +62,7 @@ class Discretization:
     source: str = ""
     construct_interfaces: bool = False
     element_horizon_intersections: bool = False
+    element_nodes: np.ndarray | None = None
 
     @property
     def num_points(self) -> int:
@@ -103,3 +106,38 @@ class DiscretizationReader(ABC):
     @abstractmethod
     def read(self) -> "Discretization":
         """Return the points in mothership order; raise InputError for unreadable input."""
+
+    def read_part(self, rank: int, size: int) -> "DiscretizationPart | None":
+        """Rank ``rank``'s part of the model when the input comes split into one piece per rank
+        for ``size`` ranks (Peridigm's pre-split meshes), else None: the engine then calls
+        :meth:`read`. Raise InputError for an unreadable piece. Every rank must give the same
+        answer (a part or None) for the same input."""
+        return None
+
+
+def mesh_order(block_names: dict[int, str], block_id: np.ndarray, gid: np.ndarray) -> np.ndarray:
+    """The permutation that puts points of pieces (block ids ``block_id``, global ids ``gid``,
+    both (n,)) in the order of the whole mesh they were cut from: blocks in the order of
+    ``block_names`` (the file's), each block's points in global-id order."""
+    ids = np.array(list(block_names), dtype=np.int64)
+    if not ids.size:
+        return np.argsort(gid, kind="stable")
+    by_id = np.argsort(ids)
+    position = by_id[np.searchsorted(ids, block_id, sorter=by_id)]
+    return np.lexsort((gid, position))
+
+
+@dataclass
+class DiscretizationPart:
+    """One rank's piece of a model read in pieces.
+
+    Attributes
+    ----------
+    points: the piece's points (``gid`` global, 0-based), ``node_sets`` left empty.
+    node_set_pairs: node set name -> (key (k,) int64, gid (k,) int64): the set's points are the
+        ``gid`` of all pieces' pairs ordered by (key, gid), each point once at its first place
+        (an Exodus node set: key = the global node id, gid = a point containing that node).
+    """
+
+    points: Discretization
+    node_set_pairs: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)

@@ -15,7 +15,7 @@ class DataLoader:
         self.sim = sim
         path = sim.deck.directory / params.file_name
         where = ("Data Loader",)
-        times, values, node_map = read_nodal_variable(path, params.field_name)
+        times, values, node_map = _read(sim, path, params, read_nodal_variable)
         if values.shape[1] != sim.num_global:
             raise InputError(
                 f"{path.name} has {values.shape[1]} nodes but the model has {sim.num_global} points", file=sim.deck.file, path=where + ("File Name",)
@@ -48,3 +48,35 @@ class DataLoader:
             self.d1, self.d2 = self.values[k], self.values[k2]
         c = (t - self.t1) / (self.t2 - self.t1) if self.t2 != self.t1 else 0.0
         self.sim.fields[self.name][:] = (1.0 - c) * self.d1 + c * self.d2
+
+
+def _read(sim, path, params, read_nodal_variable):
+    """(times, values (steps, points), node ids) of the deck's field: from the file, or, on N
+    ranks with the pieces ``FILE.N.r`` of a pre-split run, each rank reading its own piece and
+    the pieces put together (Peridigm's DataLoader reads rank r's piece alone)."""
+    from ..io.exodus_pieces import find_pieces, piece_path
+
+    comm = sim.comm
+    base = find_pieces(params.file_name, sim.deck.directory, comm.size) if not path.is_file() else None
+    if base is None:
+        return read_nodal_variable(path, params.field_name)
+    error, piece = None, None
+    try:
+        piece = read_nodal_variable(piece_path(base, comm.size, comm.rank), params.field_name)
+    except InputError as exc:
+        error = exc.one_line()
+    pieces = comm.allgather((error, piece))
+    for err, _ in pieces:
+        if err is not None:
+            raise InputError(err)
+    times = pieces[0][1][0]
+    if any(not np.array_equal(p[0], times) for _, p in pieces):
+        raise InputError(f"the pieces of {path.name} hold different time steps", file=sim.deck.file, path=("Data Loader", "File Name"))
+    values = np.concatenate([p[1] for _, p in pieces], axis=1)
+    ids = np.concatenate([np.asarray(p[2], dtype=np.int64) for _, p in pieces])
+    wanted = sim.discretization.gid + 1  # the pieces' nodes in the model's point order
+    by_id = np.argsort(ids, kind="stable")
+    at = np.minimum(np.searchsorted(ids, wanted, sorter=by_id), max(ids.size - 1, 0))
+    if ids.size == wanted.size and ids.size and np.array_equal(ids[by_id[at]], wanted):
+        return times, values[:, by_id[at]], wanted
+    return times, values, ids

@@ -29,6 +29,7 @@ from ..parallel.comm import SerialComm
 from . import checks, limits
 from .blocks import Block, block_id_from_name, plan_fusion
 from .devices import resolve_device
+from .mesh_parts import read_in_parts
 from .conditions import create_conditions
 from .placement import HostPlacement
 from ..kernels.scatter import apply_body_forces, apply_kinematic
@@ -123,7 +124,7 @@ class Simulation:
         if planned is not None:
             limits.check_memory(float(planned), 0.0, file=deck.file, path=dentry.path, what="the discretization")
         t0 = _time.perf_counter()
-        disc = reader.read()
+        disc = read_in_parts(reader, self.comm) or reader.read()  # the pieces of a pre-split mesh, else the whole
         disc.validate()
         checks.finite_points(disc, checks.mesh_file(disc, deck.file), dentry.path)
         self.discretization = disc

@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 
 from ..core.errors import InputError
+from .exodus_elements import auxiliary_map
 from .exodus_writer import EXODUS_API_VERSION, MAX_NAME_LENGTH, _char_array
 
 log = logging.getLogger("peridyn.interfaces")
@@ -115,20 +116,6 @@ def _dim(ds, name: str) -> int:
     return len(ds.dimensions[name]) if name in ds.dimensions else 0
 
 
-def _aux_map(ds, kind: str, count: int, file: str) -> np.ndarray | None:
-    """The single auxiliary map ``original_global_id_map`` of nodes ("node") or elements."""
-    dim, _names_var, var = (("num_node_maps", "nmap_names", "node_map1") if kind == "node" else ("num_elem_maps", "emap_names", "elem_map1"))
-    n = _dim(ds, dim)
-    if n == 0:
-        return None
-    if n > 1 or var not in ds.variables:
-        raise InputError(f"the file has {n} auxiliary {kind} maps; Peridigm accepts one, named original_global_id_map", file=file)
-    ids = np.asarray(ds.variables[var][:], dtype=np.int64)
-    if ids.shape != (count,):
-        raise InputError(f"auxiliary {kind} map has {ids.size} entries for {count} {kind}s", file=file)
-    return ids
-
-
 def read_mesh_topology(path: str | Path) -> MeshTopology:
     """Read the node ids, node coordinates and element connectivity of an Exodus II mesh, in the
     element order of :func:`peridyn.io.exodus_mesh.read_exodus_mesh` (blocks in file order, empty
@@ -150,7 +137,7 @@ def read_mesh_topology(path: str | Path) -> MeshTopology:
                 xyz[:, d] = np.asarray(ds.variables[f"coord{c}"][:], dtype=np.float64)
             elif "coord" in ds.variables and d < ds.variables["coord"].shape[0]:
                 xyz[:, d] = np.asarray(ds.variables["coord"][d], dtype=np.float64)
-        ids = _aux_map(ds, "node", num_nodes, file)
+        ids = auxiliary_map(ds, "node", num_nodes, file)
         if ids is None:
             ids = np.asarray(ds.variables["node_num_map"][:], dtype=np.int64) if "node_num_map" in ds.variables else np.arange(1, num_nodes + 1)
         node_id = ids - 1
@@ -171,6 +158,37 @@ def read_mesh_topology(path: str | Path) -> MeshTopology:
     np.cumsum(sizes, out=offsets[1:])
     flat = np.concatenate([c.ravel() for c in conns]) if conns else np.zeros(0, np.int64)
     return MeshTopology(node_id, xyz, offsets, node_id[flat], np.array(types, dtype=object))
+
+
+def read_piece_topology(base: Path, size: int):
+    """The :class:`~peridyn.io.interfaces.MeshTopology` of the whole mesh from all ``size``
+    pieces of ``base``, elements in the order of the whole mesh (:func:`mesh_order`), each node
+    once (a node on a cut is in every piece that uses it)."""
+    from ..core.discretization import mesh_order
+    from .exodus_pieces import piece_path, read_exodus_piece
+
+    tops, parts = [], []
+    for r in range(size):
+        path = piece_path(base, size, r)
+        tops.append(read_mesh_topology(path))
+        parts.append(read_exodus_piece(path).points)
+    names: dict[int, str] = {}
+    for p in parts:
+        for bid, name in p.block_names.items():
+            names.setdefault(bid, name)
+    order = mesh_order(names, np.concatenate([p.block_id for p in parts]), np.concatenate([p.gid for p in parts]))
+    node_id = np.concatenate([t.node_id for t in tops])
+    node_id, first = np.unique(node_id, return_index=True)
+    node_xyz = np.concatenate([t.node_xyz for t in tops])[first]
+    sizes = np.concatenate([t.nodes_per_element() for t in tops])
+    starts = np.concatenate([t.elem_offsets[:-1] + shift for t, shift in zip(tops, np.cumsum([0] + [t.elem_nodes.size for t in tops[:-1]]))])
+    nodes = np.concatenate([t.elem_nodes for t in tops])
+    sizes, starts = sizes[order], starts[order]
+    offsets = np.zeros(order.size + 1, dtype=np.int64)
+    np.cumsum(sizes, out=offsets[1:])
+    take = np.repeat(starts, sizes) + (np.arange(int(offsets[-1])) - np.repeat(offsets[:-1], sizes))
+    types = np.concatenate([t.elem_types for t in tops])[order] if order.size else np.zeros(0, dtype=object)
+    return MeshTopology(node_id, node_xyz, offsets, nodes[take], types)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -403,15 +421,22 @@ def element_hex_nodes(deck: Any, disc: Any) -> np.ndarray:
     """(n, 8, 3) node coordinates of the deck's mesh elements in mothership order, for
     element-horizon intersections; an InputError names the deck key when an element is not a
     hexahedron (Peridigm: intersections "currently enabled only for hexahedron elements")."""
-    path = mesh_file_of(deck)
+    if disc.element_nodes is not None:  # read with the mesh (a pre-split mesh's pieces)
+        return disc.element_nodes
+    return hex_nodes_of(mesh_file_of(deck), disc.num_points)
+
+
+def hex_nodes_of(path: Path, count: int) -> np.ndarray:
+    """(count, 8, 3) node coordinates of the elements of the Exodus mesh ``path``, in the order
+    of its points; InputError when an element is not a hexahedron or the count differs."""
     topo = read_mesh_topology(path)
     try:
         nodes = topo.hex_nodes()
     except ValueError as exc:
         raise InputError(f"Compute Element-Horizon Intersections: {exc}", file=str(path),
                          path=("Discretization", "Compute Element-Horizon Intersections"), fix="use a mesh of HEX8 elements") from None
-    if nodes.shape[0] != disc.num_points:
-        raise InputError(f"{nodes.shape[0]} elements in the mesh, {disc.num_points} points", file=str(path))
+    if nodes.shape[0] != count:
+        raise InputError(f"{nodes.shape[0]} elements in the mesh, {count} points", file=str(path))
     return nodes
 
 
@@ -419,8 +444,11 @@ def setup_interfaces(sim: Any) -> Interfaces:
     """Construct the interfaces of ``sim`` (neighbour lists final) and create ``Interfaces.e``
     in its output folder. Collective under MPI: each rank scans its own elements, rank 0 merges
     the records in discovery order and writes the file."""
+    from .exodus_pieces import find_pieces
+
     mesh_file = mesh_file_of(sim.deck)
-    topo = read_mesh_topology(mesh_file)
+    pieces = find_pieces(sim.deck.discretization.params.input_mesh_file, sim.deck.directory, sim.comm.size) if not mesh_file.is_file() else None
+    topo = read_mesh_topology(mesh_file) if pieces is None else read_piece_topology(pieces, sim.comm.size)
     disc = sim.discretization
     if topo.num_elements != disc.num_points:
         raise InputError(f"Construct Interfaces: {topo.num_elements} elements in the mesh, {disc.num_points} points", file=str(mesh_file))

@@ -54,7 +54,8 @@ def _exists(path: Path) -> bool:
 def find_input_file(name: str, deck_dir: Path) -> Path:
     """The path of an input file named in a deck (mesh, node-set file).
 
-    Relative names are relative to the deck's folder. When the file is not there but a file of
+    Relative names are relative to the deck's folder, then to the working folder (Peridigm's
+    rule: its parallel tests run ``cd np2; Peridigm ../DECK``). When the file is in neither but a file of
     the same base name is in the deck's folder, that one is used, with a warning: Peridigm's test
     decks live in an ``np1/`` folder and name shared inputs ``../mesh.csv``, and the conformance
     runner copies a case's files flat into one folder. The returned path need not exist.
@@ -65,6 +66,9 @@ def find_input_file(name: str, deck_dir: Path) -> Path:
     candidate = Path(deck_dir) / path
     if _exists(candidate):
         return candidate
+    here = Path.cwd() / path  # where Peridigm looks: relative to the folder it runs in
+    if here != candidate and _exists(here):
+        return here
     fallback = Path(deck_dir) / path.name
     if path.name and is_file(fallback) and fallback != candidate:
         _log.warning("%s not found; using %s from the deck's folder", candidate, fallback)
