@@ -251,8 +251,9 @@ class LameSphere(Problem):
                                  1.0 - self.DEVIATOR_BAND, 1.0 + self.DEVIATOR_BAND))
                 centre = self.MEAN_MEASURED.get(p["resolution"]) if known is None else 1.0
                 if centre is not None:
-                    out.append(Check(self.name, method, f"mean stress / Lame's A {at} (band: its measured discretisation error "
-                                     f"{centre - 1.0:+.1%} +- {self.MEAN_BAND:.1%})", v["mean stress / Lame"],
+                    band = (f"its measured discretisation error {centre - 1.0:+.1%} +- {self.MEAN_BAND:.1%}" if known is None
+                            else f"Lame's A +- {self.MEAN_BAND:.1%}")
+                    out.append(Check(self.name, method, f"mean stress / Lame's A {at} (band: {band})", v["mean stress / Lame"],
                                      centre - self.MEAN_BAND, centre + self.MEAN_BAND, known=known))
             else:
                 out.append(Check(self.name, method, f"mean dilatation / Lame's tr(eps) {at}", v["dilatation / Lame"],
