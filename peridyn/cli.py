@@ -292,7 +292,7 @@ def cmd_verify(args) -> int:
                + (f" --problems {' '.join(args.problems)}" if args.problems else "") + (f" --material {args.material!r}" if args.material else "")
                + (f" --compare {args.compare}" if args.compare else ""))
     return run_verify(args.problems, Path(args.out), quick=args.quick, command=command, device=args.device or "cpu", comm=comm,
-                      material=args.material, compare=args.compare)
+                      material=args.material, compare=args.compare, jobs=args.jobs)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -388,6 +388,8 @@ def build_parser() -> argparse.ArgumentParser:
                                                               "beyond its tolerance (5 %% unless the problem says)")
     vf.add_argument("--device", choices=("cpu", "gpu"), type=str.lower,
                     help="gpu: also run every method that has a GPU path on one NVIDIA GPU, as its own curve (needs peridyn[gpu])")
+    vf.add_argument("--jobs", type=int, default=1, metavar="N",
+                    help="run the problems in N worker processes, each problem in one (the results are the same; default 1)")
     vf.add_argument("--out", default="peridyn-verify", help="folder for results.json, report.md and the figures (default: ./peridyn-verify)")
     common(vf)
     vf.set_defaults(func=cmd_verify)

@@ -15,7 +15,8 @@ MUTATIONS: tuple[Mutation, ...] = (
         (S(_EL, "return ((((3.0 * w) * keep) * z) * e) * volume[j]", "return ((((2.9 * w) * keep) * z) * e) * volume[j]"),
          S(_EL, "return ((3.0 * z) * (L - z)) * P[j, 5]", "return ((2.9 * z) * (L - z)) * P[j, 5]"),
          S(_EL, "return ((((3.0 * w) * (1.0 - d)) * z) * (L - z)) * P[j, 5]", "return ((((2.9 * w) * (1.0 - d)) * z) * (L - z)) * P[j, 5]")),
-        ("wave-speed", "dispersion", "lattice-constants", "poisson-ratio", "static-modulus", "confined-compression", "manufactured-lps"),
+        ("wave-speed", "dispersion", "lattice-constants", "poisson-ratio", "static-modulus", "confined-compression", "manufactured-lps",
+         "lame-sphere"),
     ),
     Mutation(
         "block-density-x0.9", "every block after the first given 0.9 times its density in the points' masses",
@@ -68,7 +69,7 @@ MUTATIONS: tuple[Mutation, ...] = (
         "correspondence-bulk-x1.05", "the correspondence elastic stress with K 5 % too large",
         (S("materials/correspondence/stress.py", "store9(sigma_NP1, i, _trial_stress(load9(sigma_N, i), de, dth, K, G))",
            "store9(sigma_NP1, i, _trial_stress(load9(sigma_N, i), de, dth, 1.05 * K, G))"),),
-        ("lame-cylinder",),
+        ("lame-cylinder", "lame-sphere"),
     ),
     Mutation(
         "plastic-yield-x1.1", "the yield stress of `Elastic Plastic` 10 % too large",

@@ -13,7 +13,7 @@ import subprocess
 import sys
 import time
 import traceback
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -192,11 +192,67 @@ def write_json(path: Path, data: dict[str, Any]) -> None:
     os.replace(tmp, path)
 
 
+def _worker_start(threads: int | None, level: int) -> None:
+    """A ``--jobs`` worker's set-up: numba's threads (the machine's shared among the workers),
+    the parent's log level on stderr, and Ctrl-C left to the parent (it ends the workers)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    logging.basicConfig(level=level, format="%(message)s")
+    if threads:
+        import numba
+
+        numba.set_num_threads(threads)
+
+
+def _worker_problem(problem: Problem, quick: bool, device: str) -> tuple[list[dict[str, Any]], float]:
+    """In a ``--jobs`` worker: every point of ``problem`` as :meth:`Run.in_turn` measures them
+    (same order, warm-ups and repeats), and the seconds they took together."""
+    t0 = time.perf_counter()
+    run = Run([problem], Path("."), quick=quick, device=device)  # never saved: the parent gathers the points
+    ladders = {m: problem.ladder(base_method(m), quick) for m in run.state["problems"][0]["methods"]}
+    return list(run.points_of(problem, ladders)), time.perf_counter() - t0
+
+
+class WorkerPool:
+    """``peridyn verify --jobs N``: N worker processes (spawned: numba's threads are not forked)
+    that run whole problems, every problem submitted at once in the run's order; the parent
+    takes their points in that order (:meth:`result`), so results.json is the serial run's."""
+
+    def __init__(self, problems: Sequence[Problem], jobs: int, *, quick: bool, device: str) -> None:
+        import multiprocessing
+
+        try:
+            import numba
+
+            threads = max(1, int(numba.get_num_threads()) // jobs)
+        except Exception:  # pragma: no cover - numba is a dependency
+            threads = None
+        self.pool = multiprocessing.get_context("spawn").Pool(jobs, initializer=_worker_start,
+                                                              initargs=(threads, logging.getLogger("peridyn").getEffectiveLevel()))
+        self.pending = [self.pool.apply_async(_worker_problem, (p, quick, device)) for p in problems]
+
+    def result(self, index: int) -> tuple[list[dict[str, Any]], float]:
+        """The points of the problem ``index`` (in the run's order) and the seconds they took,
+        waiting for its worker; a worker's crash is raised here."""
+        return self.pending[index].get()
+
+    def close(self) -> None:
+        """Let the workers finish and end them."""
+        self.pool.close()
+        self.pool.join()
+
+    def stop(self) -> None:
+        """End the workers now (Ctrl-C), the problems they were running lost."""
+        self.pool.terminate()
+        self.pool.join()
+
+
 class Run:
     """One ``peridyn verify`` run: its state is what ``results.json`` holds."""
 
     def __init__(self, problems: Sequence[Problem], out: Path, *, quick: bool, command: str = "peridyn verify", device: str = "cpu",
-                 comm: Any = None, compare: dict[str, Any] | None = None, compare_path: str | None = None) -> None:
+                 comm: Any = None, compare: dict[str, Any] | None = None, compare_path: str | None = None, jobs: int = 1) -> None:
         from ..parallel.comm import SerialComm
 
         #: under ``mpiexec`` the ranks share out each problem's points and rank 0 writes the results
@@ -205,6 +261,8 @@ class Run:
         self.out = Path(out)
         self.quick = quick
         self.device = device
+        #: worker processes that run whole problems at once (``--jobs``; 1: every point in this process)
+        self.jobs = max(1, int(jobs))
         self.t0 = time.perf_counter()
         self.state: dict[str, Any] = {
             "format": 1,
@@ -217,6 +275,7 @@ class Run:
             "wall (s)": 0.0,
             "failed checks": 0,
             "ranks": self.comm.size,
+            "jobs": self.jobs,
             "problems": [self._entry(p) for p in self.problems],
         }
         if device == "gpu":
@@ -304,18 +363,23 @@ class Run:
         except Exception:  # noqa: BLE001 - reported by the point itself
             pass
 
-    def in_turn(self, problem: Problem, entry: dict[str, Any], ladders: dict[str, list[float]]) -> None:
-        """Serially: every point in turn (each method warmed up first), ``entry`` and
-        results.json updated after each."""
+    def points_of(self, problem: Problem, ladders: dict[str, list[float]]) -> Iterator[dict[str, Any]]:
+        """Every point of ``problem`` in turn, method by method (each method of a curve problem
+        warmed up first), as each finishes."""
         for method, ladder in ladders.items():
             if problem.kind == "curve" and ladder:
                 self.warm_up(problem, method, ladder[0])
             for resolution in ladder:
-                point = self.point(problem, method, resolution)
-                entry["points"].append(point)
-                self.update(problem, entry)
-                self.save()
-                log.debug("  %s %s = %g: error %s, %.3g s%s", method, problem.resolution_name, resolution, point["error"],
+                yield self.point(problem, method, resolution)
+
+    def in_turn(self, problem: Problem, entry: dict[str, Any], ladders: dict[str, list[float]]) -> None:
+        """Serially: every point in turn, ``entry`` and results.json updated after each."""
+        for point in self.points_of(problem, ladders):
+            method, resolution = point["method"], point["resolution"]
+            entry["points"].append(point)
+            self.update(problem, entry)
+            self.save()
+            log.debug("  %s %s = %g: error %s, %.3g s%s", method, problem.resolution_name, resolution, point["error"],
                           point["wall (s)"], f", FAILED: {point['failure']}" if "failure" in point else "")
 
     def shared_out(self, problem: Problem, entry: dict[str, Any], ladders: dict[str, list[float]]) -> None:
@@ -381,21 +445,31 @@ class Run:
 
         self.save()
         total = len(self.problems)
+        pool = WorkerPool(self.problems, self.jobs, quick=self.quick, device=self.device) if self.jobs > 1 else None
         try:
             for i, (problem, entry) in enumerate(zip(self.problems, self.state["problems"]), 1):
                 t0 = time.perf_counter()
                 ladders = {m: problem.ladder(base_method(m), self.quick) for m in entry["methods"]}
                 log.info("[%d/%d] %s: %s; %d points (%s)", i, total, problem.name, problem.title, sum(map(len, ladders.values())),
                          ", ".join(f"{m}: {problem.resolution_name} {' '.join(f'{r:g}' for r in rs)}" for m, rs in ladders.items()))
-                (self.shared_out if self.comm.size > 1 else self.in_turn)(problem, entry, ladders)
+                took = None
+                if pool is not None:  # the problem's points, measured in a worker (in the same order as in_turn's)
+                    points, took = pool.result(i - 1)
+                    entry["points"].extend(points)
+                    self.update(problem, entry)
+                    self.save()
+                else:
+                    (self.shared_out if self.comm.size > 1 else self.in_turn)(problem, entry, ladders)
                 failed = [c for c in entry["checks"] if fails(c)]
                 known = sum(1 for c in entry["checks"] if not c["passed"] and c.get("known"))
                 rates = ", ".join(f"{m} {r:.2f}" for m, r in entry["rates"].items() if r is not None and math.isfinite(r))
-                log.info("  %s: %.1f s%s; %d of %d checks pass%s%s", problem.name, time.perf_counter() - t0,
+                log.info("  %s: %.1f s%s; %d of %d checks pass%s%s", problem.name, time.perf_counter() - t0 if took is None else took,
                          f", fitted rates {rates}" if rates else "", len(entry["checks"]) - len(failed) - known, len(entry["checks"]),
                          f" ({known} known miss(es) FAIL, not counted: see report.md)" if known else "",
                          "".join(f"\n  FAIL {c['method']}: {c['what']} = {c['value']!r}, band {c['band']}" for c in failed))
         except KeyboardInterrupt:
+            if pool is not None:
+                pool.stop()
             self.state["status"] = "interrupted"
             self.save()
             if self.comm.rank == 0:
@@ -403,6 +477,8 @@ class Run:
             log.warning("interrupted: %s and report.md keep the %d point(s) finished", self.results_path,
                         sum(len(e["points"]) for e in self.state["problems"]))
             return int(ExitCode.INTERRUPTED)
+        if pool is not None:
+            pool.close()
         self.state["status"] = "complete"
         moved = self.compare()
         self.save()
@@ -415,11 +491,19 @@ class Run:
 
 
 def run_verify(names: Sequence[str] | None, out: str | Path, *, quick: bool = False, command: str = "peridyn verify",
-               device: str = "cpu", comm: Any = None, material: str | None = None, compare: str | Path | None = None) -> int:
+               device: str = "cpu", comm: Any = None, material: str | None = None, compare: str | Path | None = None,
+               jobs: int = 1) -> int:
     """``peridyn verify``: run the named problems (all for None) into the folder ``out``; the
     exit status (0 every band holds, 1 one fails, 130 interrupted). ``device="gpu"`` adds a
-    curve on the GPU backend for every method that has one. InputError for an unknown name, an
-    ``out`` that is a file, or ``device="gpu"`` without a usable GPU."""
+    curve on the GPU backend for every method that has one; ``jobs`` > 1 runs the problems in
+    that many worker processes (each problem's points in one worker, the results the same as with
+    1 apart from the wall times and peak memories). InputError for an unknown name, an ``out``
+    that is a file, ``device="gpu"`` without a usable GPU, or ``jobs`` < 1 or with MPI ranks."""
+    if jobs < 1:
+        raise InputError(f"--jobs {jobs}: give 1 or more worker processes", path=("--jobs",), fix="--jobs 2 on two cores")
+    if jobs > 1 and comm is not None and comm.size > 1:
+        raise InputError("--jobs with mpiexec: the ranks already share out the points", path=("--jobs",),
+                         fix="leave out --jobs under mpiexec, or run without mpiexec")
     problems = select_problems(names, material)
     before = None
     if compare is not None:
@@ -434,4 +518,4 @@ def run_verify(names: Sequence[str] | None, out: str | Path, *, quick: bool = Fa
     out = Path(out)
     prepare_out(out)
     return Run(problems, out, quick=quick, command=command, device=device, comm=comm, compare=before,
-               compare_path=None if compare is None else str(compare)).run()
+               compare_path=None if compare is None else str(compare), jobs=jobs).run()

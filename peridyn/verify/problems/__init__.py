@@ -26,13 +26,14 @@ from .newmark import NewmarkEnergy
 from .parallel import ParallelAgreement
 from .plate import OneLayerPlate
 from .rotation import RigidRotation
+from .sphere import LameSphere
 from .static import StaticModulus
 
 #: name -> class, in the order ``peridyn verify`` runs them
 PROBLEMS: dict[str, type[Problem]] = {
     cls.name: cls
     for cls in (
-        WaveSpeed, Dispersion, LatticeConstants, ForceConvergence, VerletEnergy, NewmarkEnergy, Stability, ContactStability, ContactStep, ParallelAgreement, ExtremeCases, RigidRotation, ConfinedCompression, ManufacturedLPS, LameCylinder, DensityContrast, OneLayerPlate, StaticModulus,
+        WaveSpeed, Dispersion, LatticeConstants, ForceConvergence, VerletEnergy, NewmarkEnergy, Stability, ContactStability, ContactStep, ParallelAgreement, ExtremeCases, RigidRotation, ConfinedCompression, ManufacturedLPS, LameCylinder, LameSphere, DensityContrast, OneLayerPlate, StaticModulus,
         PoissonRatio, Kirsch, DeltaConvergence, CriticalStretch, Griffith, JIntegral, KalthoffWinkler, GlassBranching, BrazilianDisk, Diffusion, ViscoelasticRelaxation, PlasticityUniaxial,
         Hertz, HertzPenalty,
     )
