@@ -14,6 +14,7 @@ width of N for N >= 10 (``NAME.g.16.03``); both spellings are accepted.
 """
 from __future__ import annotations
 
+import glob
 import os
 from pathlib import Path
 
@@ -62,7 +63,7 @@ def piece_counts(name: str, deck_dir: Path) -> list[int]:
         folder = base.parent
         if not folder.is_dir():
             continue
-        for f in folder.glob(base.name + ".*.*"):
+        for f in folder.glob(glob.escape(base.name) + ".*.*"):
             parts = f.name[len(base.name) + 1:].split(".")
             if len(parts) == 2 and parts[0].isdigit() and parts[1].isdigit() and int(parts[0]) > 1:
                 counts.add(int(parts[0]))

@@ -121,3 +121,11 @@ def test_an_element_in_two_pieces_is_bad_input(tmp_path):
     a = read_exodus_piece(tmp_path / "box.g.2.0")
     with pytest.raises(InputError, match=r"is in more than one piece"):
         assemble([a, a])
+
+
+def test_a_mesh_name_with_glob_characters_finds_its_pieces(tmp_path):
+    path = write_box_mesh(tmp_path / "part[1].g", (4, 2, 2), 1.0, node_sets=SETS)
+    split_exodus(path, owners(16, 2, "slabs"), 2)
+    path.unlink()
+    assert piece_counts("part[1].g", tmp_path) == [2]
+    assert find_pieces("part[1].g", tmp_path, 2) == tmp_path / "part[1].g"
