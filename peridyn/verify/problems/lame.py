@@ -48,6 +48,11 @@ def lame_expressions(a: float, b: float, nu: float) -> tuple[str, str]:
     return f"{ur}*x/{r}*t", f"{ur}*y/{r}*t"
 
 
+def poisson_ratio(method: str) -> float:
+    """The Poisson's ratio a method's name states (``"Elastic, nu = 0.49"`` -> 0.49)."""
+    return float(method.split("= ")[1])
+
+
 class LameCylinder(Problem):
     name = "lame-cylinder"
     title = "Correspondence near nu = 0.5: a pressurised thick-walled cylinder against Lamé"
@@ -93,9 +98,7 @@ class LameCylinder(Problem):
         "not K times each point's own trace: a mixed (displacement-pressure) or B-bar-like averaged dilatation over the "
         "family, in peridyn/materials/correspondence")
 
-    @staticmethod
-    def nu(method: str) -> float:
-        return float(method.split("= ")[1])
+    nu = staticmethod(poisson_ratio)
 
     def ladder(self, method: str, quick: bool) -> list[float]:
         return [6.0] if quick else [6.0, 8.0, 10.0]

@@ -18,6 +18,7 @@ from ..fit import fit_rate
 from .base import Check, Measurement, Problem
 from .dynamics import quiet
 from .elasticity import MATRIX_FREE, NEWTON, solve, solver_values, write_mesh
+from .lame import poisson_ratio
 
 G = 1.0e9  #: shear modulus (Pa)
 H = 1.0e-3  #: lattice spacing (m)
@@ -174,9 +175,7 @@ class LameSphere(Problem):
         "(some 10^6 points in the octant), or a pressure that is not K times each point's own trace: a mixed "
         "(displacement-pressure) formulation or a dilatation averaged over the family (B-bar-like)")
 
-    @staticmethod
-    def nu(method: str) -> float:
-        return float(method.split("= ")[1])
+    nu = staticmethod(poisson_ratio)
 
     def ladder(self, method: str, quick: bool) -> list[float]:
         if quick:
