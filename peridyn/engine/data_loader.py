@@ -55,25 +55,18 @@ def _read(sim, path, params, read_nodal_variable):
     ranks with the pieces ``FILE.N.r`` of a pre-split run, each rank reading its own piece and
     the pieces put together (Peridigm's DataLoader reads rank r's piece alone)."""
     from ..io.exodus_pieces import find_pieces, piece_path
+    from .mesh_parts import gather_pieces
 
     comm = sim.comm
     base = find_pieces(params.file_name, sim.deck.directory, comm.size) if not path.is_file() else None
     if base is None:
         return read_nodal_variable(path, params.field_name)
-    error, piece = None, None
-    try:
-        piece = read_nodal_variable(piece_path(base, comm.size, comm.rank), params.field_name)
-    except InputError as exc:
-        error = exc.one_line()
-    pieces = comm.allgather((error, piece))
-    for err, _ in pieces:
-        if err is not None:
-            raise InputError(err)
-    times = pieces[0][1][0]
-    if any(not np.array_equal(p[0], times) for _, p in pieces):
+    pieces = gather_pieces(comm, lambda: read_nodal_variable(piece_path(base, comm.size, comm.rank), params.field_name))
+    times = pieces[0][0]
+    if any(not np.array_equal(p[0], times) for p in pieces):
         raise InputError(f"the pieces of {path.name} hold different time steps", file=sim.deck.file, path=("Data Loader", "File Name"))
-    values = np.concatenate([p[1] for _, p in pieces], axis=1)
-    ids = np.concatenate([np.asarray(p[2], dtype=np.int64) for _, p in pieces])
+    values = np.concatenate([p[1] for p in pieces], axis=1)
+    ids = np.concatenate([np.asarray(p[2], dtype=np.int64) for p in pieces])
     wanted = sim.discretization.gid + 1  # the pieces' nodes in the model's point order
     by_id = np.argsort(ids, kind="stable")
     at = np.minimum(np.searchsorted(ids, wanted, sorter=by_id), max(ids.size - 1, 0))

@@ -9,12 +9,15 @@ every rank, as a run on the whole mesh is.
 """
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Callable
+from typing import Any, TypeVar
 
 import numpy as np
 
 from ..core.discretization import Discretization, DiscretizationPart, DiscretizationReader, mesh_order
 from ..core.errors import InputError
+
+T = TypeVar("T")
 
 
 def read_in_parts(reader: DiscretizationReader, comm: Any) -> Discretization | None:
@@ -23,23 +26,28 @@ def read_in_parts(reader: DiscretizationReader, comm: Any) -> Discretization | N
     whole). Collective: an input error in any rank's piece is raised on every rank."""
     if comm.size == 1:
         return None
-    part: DiscretizationPart | None = None
-    error: tuple | None = None
+    parts = gather_pieces(comm, lambda: reader.read_part(comm.rank, comm.size))
+    if all(p is None for p in parts):
+        return None
+    if any(p is None for p in parts):
+        raise InputError("some ranks found their piece of the mesh and others did not", fix="give every rank its piece, or the whole mesh")
+    return assemble(parts)
+
+
+def gather_pieces(comm: Any, read: Callable[[], T]) -> list[T]:
+    """Every rank's ``read()`` (its piece of some input), in rank order. Collective: an input
+    error on any rank is raised on every rank, so none is left waiting."""
+    value, error = None, None
     try:
-        part = reader.read_part(comm.rank, comm.size)
+        value = read()
     except InputError as exc:
         error = (exc.message, exc.file, exc.path, exc.fix, exc.line)
-    answers = comm.allgather((error, part is not None))
+    answers = comm.allgather((error, value))
     for err, _ in answers:
         if err is not None:
             message, file, path, fix, line = err
             raise InputError(message, file=file, path=path, fix=fix, line=line)
-    if not any(has for _, has in answers):
-        return None
-    if not all(has for _, has in answers):
-        raise InputError("some ranks found their piece of the mesh and others did not", fix="give every rank its piece, or the whole mesh")
-    assert part is not None
-    return assemble(comm.allgather(part))
+    return [v for _, v in answers]
 
 
 def assemble(parts: list[DiscretizationPart]) -> Discretization:
