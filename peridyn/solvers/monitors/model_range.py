@@ -24,6 +24,7 @@ from numba import njit, prange, uint64
 
 from ...computes.deformation_gradient import INTACT_DEFORMATION_GRADIENT
 from ...core.influence import ONE
+from ...kernels import mirror
 
 log = logging.getLogger("peridyn.solver")
 
@@ -32,6 +33,19 @@ log = logging.getLogger("peridyn.solver")
 #: section's work; a section shorter than that is checked at its end)
 CHECKS_PER_SECTION = 10
 MIN_STRIDE = 100
+
+
+@njit(cache=True, inline="always")
+def squared_stretch(x, y, i, j):
+    """(|y_j - y_i| / |x_j - x_i|)^2, or -1 for two points at one place."""
+    r0 = 0.0
+    r = 0.0
+    for c in range(3):
+        d0 = x[j, c] - x[i, c]
+        d = y[j, c] - y[i, c]
+        r0 += d0 * d0
+        r += d * d
+    return r / r0 if r0 > 0.0 else -1.0
 
 
 @njit(cache=True, parallel=True)
@@ -51,20 +65,45 @@ def bond_strain_kernel(start, stop, offsets, neighbors, x, y, damage, point_dama
             if has_d and damage[b] >= 1:
                 continue
             j = neighbors[b] & 0x7FFFFFFF
-            r0 = 0.0
-            r = 0.0
-            for c in range(3):
-                d0 = x[j, c] - x[i, c]
-                d = y[j, c] - y[i, c]
-                r0 += d0 * d0
-                r += d * d
-            if r0 > 0.0:
-                q = r / r0
+            q = squared_stretch(x, y, i, j)
+            if q >= 0.0:
                 if q > longest:
                     longest = q
                 elif q < shortest:
                     shortest = q
         out[i - start] = max(math.sqrt(longest) - 1.0, 1.0 - math.sqrt(shortest))
+
+
+@njit(cache=True)
+def mirrored_bond_strain_kernel(n, offsets, neighbors, x, y, damage, point_damage, upper, cursor, longest, shortest, out):
+    """bond_strain_kernel's ``out`` for the points 0..n, each bond visited once (one thread): row i
+    visits its upper bonds (``kernels.mirror``'s plan ``upper``, ``cursor``), whose bond back from j
+    is j's next lower bond; each end keeps the bond when its own damage is below 1. The same
+    extremes as the gather, so the same bits."""
+    has_d = damage.shape[0] > 0
+    has_p = point_damage.shape[0] > 0
+    for i in range(n):
+        cursor[i] = 0
+        longest[i] = 1.0
+        shortest[i] = 1.0
+    for i in range(n):
+        for b in range(uint64(upper[i]), uint64(offsets[i + 1])):
+            j = neighbors[b] & 0x7FFFFFFF
+            rb = offsets[j] + cursor[j]
+            cursor[j] += 1
+            q = squared_stretch(x, y, i, j)
+            if q >= 0.0:
+                if not has_d or damage[b] < 1:
+                    longest[i] = max(longest[i], q)
+                    shortest[i] = min(shortest[i], q)
+                if not has_d or damage[rb] < 1:
+                    longest[j] = max(longest[j], q)
+                    shortest[j] = min(shortest[j], q)
+    for i in range(n):
+        if has_p and point_damage[i] > 0.5:
+            out[i] = 0.0
+        else:
+            out[i] = max(math.sqrt(longest[i]) - 1.0, 1.0 - math.sqrt(shortest[i]))
 
 
 def family_gradients(sim: Any, lo: int, hi: int, damage: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -134,6 +173,7 @@ class RangeWatch:
         x, y = f["Model_Coordinates"], f["Coordinates"]
         damage = f["Bond_Damage"] if "Bond_Damage" in f else np.zeros(0, dtype=np.uint8)
         point_damage = f["Damage"] if "Damage" in f else np.zeros(0)
+        every = self._mirrored_strains(x, y, damage, point_damage)
         for blk in self.blocks:
             lo, hi = blk.start, min(blk.stop, n)
             mat = blk.material
@@ -143,7 +183,10 @@ class RangeWatch:
                 values = np.zeros(max(hi - lo, 0))
                 if hi > lo:
                     if kind == "strain":  # a bond beyond the limit, then its family's strain (not one bond at a crack)
-                        bond_strain_kernel(lo, hi, nl.offsets, nl.neighbors, x, y, damage, point_damage, values)
+                        if every is not None:
+                            values[:] = every[lo:hi]
+                        else:
+                            bond_strain_kernel(lo, hi, nl.offsets, nl.neighbors, x, y, damage, point_damage, values)
                         over = np.flatnonzero(values > limit)
                         if over.size:
                             F, singular = family_gradients(sim, lo, hi, damage)
@@ -159,6 +202,25 @@ class RangeWatch:
                 if worst[0] > limit and (blk.name, kind) not in self.warned:
                     self.warned.add((blk.name, kind))
                     self._warn(blk, kind, limit, worst)
+
+    def _mirrored_strains(self, x: np.ndarray, y: np.ndarray, damage: np.ndarray,
+                          point_damage: np.ndarray) -> np.ndarray | None:
+        """(num_owned,) every point's bond_strain_kernel value from one visit per bond, on a run of
+        one rank and one thread whose rows mirror (``kernels.mirror``) and whose blocks measure
+        strain; None otherwise (the blocks' gathers run)."""
+        sim = self.sim
+        nl = sim.bonds
+        if (sim.comm.size > 1 or not sim.backend.one_thread() or not mirror.enabled()
+                or nl.num_points != sim.num_owned or not any(b.material.small_strain_limit is not None for b in self.blocks)):
+            return None
+        plan = mirror.mirror_plan(nl, 0, nl.num_points)
+        if plan is None:
+            return None
+        n = nl.num_points
+        out = np.empty(n)
+        mirrored_bond_strain_kernel(n, nl.offsets, nl.neighbors, x, y, damage, point_damage, *plan,
+                                    np.empty(n), np.empty(n), out)
+        return out
 
     def _warn(self, blk: Any, kind: str, limit: float, worst: tuple) -> None:
         value, gid, where = worst

@@ -8,7 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from peridyn.solvers.monitors.model_range import rotation_angles
+from peridyn.kernels import mirror
+from peridyn.solvers.monitors.model_range import bond_strain_kernel, mirrored_bond_strain_kernel, rotation_angles
 from peridyn.testing import build_simulation, cube_deck
 from peridyn.engine.session import run_sections
 
@@ -89,3 +90,24 @@ def test_an_impact_beyond_the_linear_range_is_warned_about_with_its_strain(caplo
     if warned:
         assert len(strained) == 1 and "block block_1" in strained[0] and "'Elastic'" in strained[0]
         assert sim.stats["range"]["block_1"]["strain"] > 0.1
+
+
+def test_the_mirrored_strain_pass_gives_the_gathers_bits_with_damage_that_differs_between_ends():
+    """One visit per bond (one thread) against the gather from both ends: each end keeps a bond by
+    its own damage, so broken-at-one-end bonds and debris points must come out the same."""
+    sim = build_simulation(cube_deck(dict(LPS), shape=(7, 5, 4), spacing=H))
+    nl = sim.bonds
+    plan = mirror.mirror_plan(nl, 0, nl.num_points)
+    assert plan is not None
+    rng = np.random.default_rng(3)
+    n = nl.num_points
+    x = sim.fields["Model_Coordinates"]
+    y = x + rng.normal(scale=0.05 * H, size=x.shape)
+    damage = (rng.random(nl.num_bonds) < 0.3).astype(np.uint8)  # not symmetric: j->i may be intact
+    point_damage = np.where(rng.random(n) < 0.1, 0.75, 0.25)
+    for d, p in ((damage, point_damage), (np.zeros(0, dtype=np.uint8), np.zeros(0))):
+        gathered, mirrored = np.zeros(n), np.zeros(n)
+        bond_strain_kernel(0, n, nl.offsets, nl.neighbors, x, y, d, p, gathered)
+        mirrored_bond_strain_kernel(n, nl.offsets, nl.neighbors, x, y, d, p, *plan, np.empty(n), np.empty(n), mirrored)
+        assert gathered.max() > 0.01
+        assert np.array_equal(gathered, mirrored)
