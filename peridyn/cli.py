@@ -255,6 +255,39 @@ def cmd_fragments(args) -> int:
     return ExitCode.OK
 
 
+def cmd_merge(args) -> int:
+    """Join the per-rank pieces NAME.e.N.r of a run into NAME.e (what SEACAS epu does)."""
+    from .engine.output_paths import check_output_file, replace_atomic
+    from .engine.output_pieces import pieces_of
+    from .io.exodus_merge import merge_pieces
+
+    _setup_logging(args.verbose - args.quiet)
+    result = Path(args.result)
+    pieces = pieces_of(result)
+    if not pieces:
+        raise InputError(f"no pieces {result.name}.N.r beside it", file=str(result),
+                         fix="give the name without .N.r of a file that ran on N ranks with Merge Rank Files: false")
+    size = int(pieces[0].name.rsplit(".", 2)[-2])
+    if len(pieces) != size:
+        have = {int(p.name.rsplit(".", 1)[-1]) for p in pieces}
+        missing = [r for r in range(size) if r not in have]
+        log.warning("%s: no piece of rank%s %s (a rank that owned no point writes none)", result.name,
+                    "s" if len(missing) > 1 else "", ", ".join(map(str, missing[:8])))
+    out = Path(args.output) if args.output else result
+    check_output_file(out, "--output")
+
+    def write(tmp: Path) -> None:
+        try:
+            steps = merge_pieces(pieces, tmp)
+        except ValueError as exc:
+            raise InputError(str(exc), file=str(result), fix="give the pieces of one run, all of them") from None
+        log.info("%d pieces, %d frames", len(pieces), steps)
+
+    replace_atomic(out, write, "--output")
+    print(f"wrote {out} from {len(pieces)} pieces")
+    return ExitCode.OK
+
+
 def _readable_path(path: str) -> None:
     """An input path the system cannot even look at (a name too long, a loop of links) is bad
     input naming it (shortened), not an internal error."""
@@ -365,6 +398,12 @@ def build_parser() -> argparse.ArgumentParser:
     fr.add_argument("--plot", metavar="PNG", help="also draw the cumulative distribution into PNG (needs peridyn[plot])")
     common(fr)
     fr.set_defaults(func=cmd_fragments)
+
+    mg = sub.add_parser("merge", help="join the per-rank pieces NAME.e.N.r of a run into NAME.e (as SEACAS epu does)")
+    mg.add_argument("result", help="the file the pieces are of, e.g. cylinder.e for cylinder.e.4.0 ... cylinder.e.4.3")
+    mg.add_argument("--output", metavar="FILE", help="write the joined file here (default: RESULT itself)")
+    common(mg)
+    mg.set_defaults(func=cmd_merge)
 
     pl = sub.add_parser("plot", help="pictures of a result file: energy, momentum and damage histories, frames (needs peridyn[plot])")
     pl.add_argument("result", help="an Exodus file a run wrote, e.g. cylinder.e")

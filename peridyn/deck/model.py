@@ -68,7 +68,10 @@ class OutputParams(ModelParams):
     output_frequency: int = Field(-1, alias="Output Frequency", description="write every n-th call (steps); -1 writes nothing")
     initial_output_step: int = Field(1, alias="Initial Output Step", description="first write counter that may write")
     final_output_step: int = Field(2**31 - 2, alias="Final Output Step", description="last write counter that may write (minus one)")
-    parallel_write: bool = Field(True, alias="Parallel Write", description="accepted; one merged file is always written")
+    parallel_write: bool = Field(True, alias="Parallel Write", description="accepted; on several ranks each writes its own piece")
+    merge_rank_files: bool = Field(True, alias="Merge Rank Files", description=(
+        "on N > 1 ranks: true joins the ranks' pieces into one NAME.e when the run ends; false keeps Peridigm's "
+        "NAME.e.N.r pieces ('peridyn merge NAME.e' joins them later)"))
     bond_family: bool = Field(False, alias="Bond Family", description="accepted for compatibility")
     output_variables: dict[str, Any] = Field(default_factory=dict, alias="Output Variables", description="variables to write (values ignored, as in Peridigm)")
 

@@ -282,6 +282,9 @@ def check_outputs(sim, writers: list, path: Path, meta: dict) -> None:
             raise refusal(path, f"its output {state['section']!r} is not this deck's {w.entry.section!r}", "restart with the deck that wrote it")
         if not state["frames"] or not sim.comm.is_root:
             continue
+        from .output_pieces import continue_pieces
+
+        continue_pieces(w)  # the pieces a stopped run on several ranks left, joined first
         partial, final = w.partial_path, w.path
         source = partial if partial.is_file() else final if final.is_file() else None
         if source is None:

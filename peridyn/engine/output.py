@@ -336,6 +336,8 @@ class OutputWriter:
         self.global_only = manager.global_only(entry)
         self.path = sim.output_dir / manager.file_name(entry)
         self._writer = None
+        #: on several ranks, this rank's share of its own piece of the file (output_pieces)
+        self.piece = None
         self.frames = 0
         #: a restarted run: the frames of ``partial_path`` kept, the next ones appended (peridyn.engine.restart)
         self.resume_frames: int | None = None
@@ -362,6 +364,9 @@ class OutputWriter:
         if self._writer is None:
             with self._writing(t):
                 self._open()
+        if self.piece is not None:
+            self._write_piece(t)
+            return
         nodal = {}
         element = {}
         glob = {}
@@ -394,6 +399,28 @@ class OutputWriter:
         if comm.is_root:
             with self._writing(t):
                 self._writer.write_step(t, nodal=nodal, element=element, glob=glob)
+        self.frames += 1
+
+    def _write_piece(self, t: float) -> None:
+        """A frame of this rank's points in its piece (several ranks: no gather)."""
+        sim, piece = self.sim, self.piece
+        n_owned = sim.num_owned
+        cache: dict[str, np.ndarray] = {}
+
+        def rows(v) -> np.ndarray:
+            if v.name not in cache:
+                cache[v.name] = piece.values(sim.fields[v.name][:n_owned])
+            return cache[v.name]
+
+        nodal = {cname: (rows(v) if rows(v).ndim == 1 else rows(v)[:, k]) for v, cname, k in self.nodal}
+        element = {}
+        for v, cname, k in self.element:
+            col = rows(v) if rows(v).ndim == 1 else rows(v)[:, k]
+            element[cname] = [c if has else None for c, has in zip(piece.block_values(col), self.manager.blocks_with(v.name))]
+        glob = {cname: float(sim.fields[v.name][k]) for v, cname, k in self.glob}
+        self._check_finite(t)
+        with self._writing(t):
+            self._writer.write_step(t, nodal=nodal, element=element, glob=glob)
         self.frames += 1
 
     @contextlib.contextmanager
@@ -443,6 +470,13 @@ class OutputWriter:
         sim = self.sim
         comm = sim.comm
         disc = sim.discretization
+        if comm.is_root and not self.resume_frames:
+            from .output_pieces import drop_stale_pieces
+
+            drop_stale_pieces(self.partial_path, comm.size)
+        if comm.size > 1 and not self.global_only:
+            self._open_piece()
+            return
         # element blocks in block order, each block's points in mothership order
         self._block_nodes = []
         blocks = []
@@ -471,6 +505,23 @@ class OutputWriter:
             append_after=self.resume_frames,
         )
 
+    def _open_piece(self) -> None:
+        from ..io.exodus_writer import ExodusBlock, ExodusWriter
+        from .output_pieces import APPEND_AFTER, RankPiece, piece_path
+
+        sim = self.sim
+        self.piece = piece = RankPiece(sim)
+        if not piece.num_nodes:
+            self._writer = _NullWriter()
+            return
+        truth = np.array([self.manager.blocks_with(v.name) for v, _, _ in self.element], dtype=bool).T.reshape(len(sim.blocks), len(self.element))
+        path = piece_path(self.partial_path, sim.comm.size, sim.comm.rank)
+        self._writer = piece.writer(path, ExodusBlock, ExodusWriter, nodal_vars=[c for _, c, _ in self.nodal],
+                                    element_vars=[c for _, c, _ in self.element], global_vars=[c for _, c, _ in self.glob],
+                                    truth_table=truth)
+        if self.resume_frames:
+            self._writer.set_attribute(APPEND_AFTER, self.resume_frames)
+
     @property
     def partial_path(self) -> Path:
         """Where frames go while the run lasts: ``NAME.partial.e`` beside ``NAME.e``."""
@@ -495,6 +546,12 @@ class OutputWriter:
             if complete:
                 raise OutputWriteError(f"{self.entry.section}: closing {self.partial_path.name} failed ({exc})") from None
             log.warning("closing %s failed (%s)", self.partial_path.name, exc)
+        if self.piece is not None:
+            from .output_pieces import close_pieces
+
+            self._writer = None
+            close_pieces(self, complete)
+            return
         if isinstance(self._writer, _NullWriter):
             return
         self._writer = None

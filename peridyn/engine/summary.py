@@ -59,7 +59,8 @@ def log_summary(sim, files: OutputFiles, wall: float) -> None:
             _log_contact(c, steps)
     if sim.comm.size > 1:
         _log_parallel(sim)
-    written = [str(w.path.name) for w in files.writers if w.frames]
+    written = [f"{w.path.name}.{sim.comm.size}.0 ... .{sim.comm.size - 1} (per rank)" if w.piece is not None and
+               not w.entry.params.merge_rank_files else str(w.path.name) for w in files.writers if w.frames]
     log.info("done in %.2f s; wrote %s", wall, ", ".join(written) if written else "no output")
 
 

@@ -68,12 +68,17 @@ class ExodusBlock:
     block_id: the block's Exodus ID (the deck block ID), ``eb_prop1``.
     name: the block name, ``eb_names`` (at most 32 characters are kept).
     nodes: (num_el_in_blk,) 0-based node indices (mothership order positions) of this block's
-        points, in block order; ``connect<b>`` holds ``nodes + 1``.
+        points, in block order; ``connect<b>`` holds ``nodes + 1``. A writer whose mesh data
+        come later in slices (``ExodusWriter(coords=None, ...)``) takes the block's size instead.
     """
 
     block_id: int
     name: str
-    nodes: np.ndarray
+    nodes: np.ndarray | int
+
+    @property
+    def size(self) -> int:
+        return int(self.nodes) if isinstance(self.nodes, (int, np.integer)) else int(np.size(self.nodes))
 
 
 def _char_array(strings: Sequence[str], width: int) -> np.ndarray:
@@ -101,6 +106,11 @@ def _check_var_names(kind: str, names: Sequence[str]) -> list[str]:
     return names
 
 
+def _size(entries: np.ndarray | int) -> int:
+    """A node set's or block's size, given as its indices or (a deferred writer's) as a count."""
+    return int(entries) if isinstance(entries, (int, np.integer)) else int(np.size(entries))
+
+
 def _check_int32(what: str, values: np.ndarray) -> None:
     if values.size and (values.min() < np.iinfo(np.int32).min or values.max() > np.iinfo(np.int32).max):
         raise ValueError(f"{what} do not fit the file's 32-bit integers")
@@ -124,7 +134,10 @@ class ExodusWriter:
     Parameters
     ----------
     path: the file to write; an existing file is overwritten (here, at construction).
-    coords: (num_nodes, 3) reference coordinates **x** in mothership order [length unit].
+    coords: (num_nodes, 3) reference coordinates **x** in mothership order [length unit]; None
+        for a file whose mesh data are written later in slices (:meth:`write_nodes`,
+        :meth:`write_block`, :meth:`write_node_set`): ``num_nodes`` is then given, node_num_map
+        is None, and blocks and node sets carry their sizes instead of their indices.
     node_num_map: (num_nodes,) 1-based node IDs (GID + 1) in mothership order.
     blocks: the element blocks, in block order; together they list each node once.
     node_sets: (name, node indices) pairs in the order to write (IDs 1, 2, ...); indices are
@@ -134,6 +147,8 @@ class ExodusWriter:
     truth_table: (num_blocks, num_element_vars) bool, which block carries which element variable;
         default all True. Rows of empty blocks are written as 0.
     title: the ``title`` attribute.
+    auxiliary: (variable name, dimension name, values) of int32 variables outside Exodus's own
+        (a piece's node order, ``exodus_merge``), over one of the file's dimensions.
     program: the QA record's program name; the QA version is peridyn's version.
 
     The file is complete and readable after construction (0 steps) and after each
@@ -155,39 +170,56 @@ class ExodusWriter:
         title: str = "Peridigm",
         program: str = "peridyn",
         append_after: int | None = None,
+        num_nodes: int | None = None,
+        auxiliary: Sequence[tuple[str, str, np.ndarray]] = (),
     ) -> None:
         self.path = Path(path)
-        coords = np.asarray(coords, dtype=np.float64)
-        if coords.ndim != 2 or coords.shape[1] != 3:
-            raise ValueError(f"coords must have shape (n, 3), got {coords.shape}")
-        n = coords.shape[0]
+        self.auxiliary = [(name, dim, np.asarray(values)) for name, dim, values in auxiliary]
+        #: the mesh data (coordinates, maps, connectivity, node sets) come later, in slices
+        self.deferred = coords is None
+        if self.deferred:
+            if num_nodes is None:
+                raise ValueError("a writer without coords needs num_nodes")
+            n = int(num_nodes)
+        else:
+            coords = np.asarray(coords, dtype=np.float64)
+            if coords.ndim != 2 or coords.shape[1] != 3:
+                raise ValueError(f"coords must have shape (n, 3), got {coords.shape}")
+            n = coords.shape[0]
+            node_num_map = np.asarray(node_num_map)
+            if node_num_map.shape != (n,):
+                raise ValueError(f"node_num_map must have shape ({n},), got {node_num_map.shape}")
+            _check_int32("node_num_map", node_num_map)
         if n == 0:
             raise ValueError("an Exodus file needs at least one node")
-        node_num_map = np.asarray(node_num_map)
-        if node_num_map.shape != (n,):
-            raise ValueError(f"node_num_map must have shape ({n},), got {node_num_map.shape}")
         if not blocks:
             raise ValueError("an Exodus file needs at least one element block")
         self.num_nodes = n
-        self.blocks = [
-            ExodusBlock(int(b.block_id), _entity_name("block", b.name), np.asarray(b.nodes, dtype=np.int64).reshape(-1))
-            for b in blocks
-        ]
-        _check_int32("node_num_map", node_num_map)
+
+        def entries(given) -> np.ndarray | int:
+            if self.deferred:
+                return int(given)
+            idx = np.asarray(given, dtype=np.int64).reshape(-1)
+            return idx
+
+        self.blocks = [ExodusBlock(int(b.block_id), _entity_name("block", b.name), entries(b.nodes)) for b in blocks]
         _check_int32("block IDs", np.array([b.block_id for b in self.blocks]))
-        for b in self.blocks:
-            if b.nodes.size and (b.nodes.min() < 0 or b.nodes.max() >= n):
-                raise ValueError(f"block {b.block_id}: node index out of range [0, {n})")
+        if not self.deferred:
+            for b in self.blocks:
+                if b.size and (b.nodes.min() < 0 or b.nodes.max() >= n):
+                    raise ValueError(f"block {b.block_id}: node index out of range [0, {n})")
         ids = [b.block_id for b in self.blocks]
         if len(set(ids)) != len(ids):
             raise ValueError(f"duplicate block IDs: {ids}")
         sets = []
         for name, idx in node_sets:
-            idx = np.asarray(idx, dtype=np.int64).reshape(-1)
-            if idx.size and (idx.min() < 0 or idx.max() >= n):
+            idx = entries(idx)
+            if not self.deferred and idx.size and (idx.min() < 0 or idx.max() >= n):
                 raise ValueError(f"node set {name!r}: node index out of range [0, {n})")
             sets.append((_entity_name("node set", name), idx))
         self.node_sets = sets
+        #: each block's first position in elem_num_map
+        self.block_starts = np.concatenate([[0], np.cumsum([b.size for b in self.blocks])]).astype(np.int64)
         self.nodal_vars = _check_var_names("nodal", nodal_vars)
         self.element_vars = _check_var_names("element", element_vars)
         self.global_vars = _check_var_names("global", global_vars)
@@ -200,7 +232,7 @@ class ExodusWriter:
                 raise ValueError(f"truth_table must have shape ({nb}, {ne}), got {tab.shape}")
             tab = tab.copy()
         for bi, b in enumerate(self.blocks):
-            if b.nodes.size == 0:
+            if b.size == 0:
                 tab[bi, :] = False  # NULL block: no result variables
         self.truth_table = tab
         self._num_steps = 0
@@ -245,7 +277,7 @@ class ExodusWriter:
             ds.setncattr("title", str(title)[: _LEN_LINE - 1])
 
             blocks, sets = self.blocks, self.node_sets
-            num_elem = int(sum(b.nodes.size for b in blocks))
+            num_elem = int(self.block_starts[-1])
             ds.createDimension("len_string", _LEN_STRING)
             ds.createDimension("len_line", _LEN_LINE)
             ds.createDimension("four", 4)
@@ -260,11 +292,11 @@ class ExodusWriter:
                 ds.createDimension("num_node_sets", len(sets))
             ds.createDimension("num_qa_rec", 1)
             for k, (_, idx) in enumerate(sets, start=1):
-                if idx.size:
-                    ds.createDimension(f"num_nod_ns{k}", idx.size)
+                if _size(idx):
+                    ds.createDimension(f"num_nod_ns{k}", _size(idx))
             for b, blk in enumerate(blocks, start=1):
-                if blk.nodes.size:
-                    ds.createDimension(f"num_el_in_blk{b}", blk.nodes.size)
+                if blk.size:
+                    ds.createDimension(f"num_el_in_blk{b}", blk.size)
                     ds.createDimension(f"num_nod_per_el{b}", 1)
             if self.global_vars:
                 ds.createDimension("num_glo_var", len(self.global_vars))
@@ -289,10 +321,10 @@ class ExodusWriter:
             var("coor_names", "S1", ("num_dim", "len_name"))
             var("qa_records", "S1", ("num_qa_rec", "four", "len_string"))
             for k, (_, idx) in enumerate(sets, start=1):
-                if idx.size:
+                if _size(idx):
                     var(f"node_ns{k}", i4, (f"num_nod_ns{k}",))
             for b, blk in enumerate(blocks, start=1):
-                if blk.nodes.size:
+                if blk.size:
                     conn = var(f"connect{b}", i4, (f"num_el_in_blk{b}", f"num_nod_per_el{b}"))
                     conn.setncattr("elem_type", "SPHERE")
             var("node_num_map", i4, ("num_nodes",))
@@ -317,29 +349,37 @@ class ExodusWriter:
                             self._elem[i][b] = var(f"vals_elem_var{i + 1}eb{b + 1}", f8, dims)
                 var("elem_var_tab", i4, ("num_el_blk", "num_elem_var"))
 
+            for name, dim, _ in self.auxiliary:
+                var(name, i4, (dim,))
+
             # ---- data (leaves define mode on the first write)
-            ds["eb_status"][:] = np.array([1 if b.nodes.size else 0 for b in blocks], dtype=np.int32)
+            ds["eb_status"][:] = np.array([1 if b.size else 0 for b in blocks], dtype=np.int32)
             ds["eb_prop1"][:] = np.array([b.block_id for b in blocks], dtype=np.int32)
             if sets:
-                ds["ns_status"][:] = np.array([1 if idx.size else 0 for _, idx in sets], dtype=np.int32)
+                ds["ns_status"][:] = np.array([1 if _size(idx) else 0 for _, idx in sets], dtype=np.int32)
                 ds["ns_prop1"][:] = np.arange(1, len(sets) + 1, dtype=np.int32)
                 ds["ns_names"][:] = _char_array([s for s, _ in sets], _LEN_NAME)
-            for j, c in enumerate("xyz"):
-                ds[f"coord{c}"][:] = coords[:, j]
+            if not self.deferred:
+                for j, c in enumerate("xyz"):
+                    ds[f"coord{c}"][:] = coords[:, j]
             ds["eb_names"][:] = _char_array([b.name for b in blocks], _LEN_NAME)
             ds["coor_names"][:] = _char_array(["x", "y", "z"], _LEN_NAME)
             now = _dt.datetime.now()
             qa = [program, _program_version(), now.strftime("%m/%d/%y"), now.strftime("%H:%M:%S")]
             ds["qa_records"][:] = _char_array(qa, _LEN_STRING)[None]
-            for k, (_, idx) in enumerate(sets, start=1):
-                if idx.size:
-                    ds[f"node_ns{k}"][:] = (idx + 1).astype(np.int32)
-            for b, blk in enumerate(blocks, start=1):
-                if blk.nodes.size:
-                    ds[f"connect{b}"][:] = (blk.nodes + 1).astype(np.int32)[:, None]
-            ds["node_num_map"][:] = node_num_map.astype(np.int32)
-            if num_elem:
-                ds["elem_num_map"][:] = np.concatenate([node_num_map[b.nodes] for b in blocks]).astype(np.int32)
+            if not self.deferred:
+                for k, (_, idx) in enumerate(sets, start=1):
+                    if idx.size:
+                        ds[f"node_ns{k}"][:] = (idx + 1).astype(np.int32)
+                for b, blk in enumerate(blocks, start=1):
+                    if blk.size:
+                        ds[f"connect{b}"][:] = (blk.nodes + 1).astype(np.int32)[:, None]
+                ds["node_num_map"][:] = node_num_map.astype(np.int32)
+                if num_elem:
+                    ds["elem_num_map"][:] = np.concatenate([node_num_map[b.nodes] for b in blocks]).astype(np.int32)
+            for name, _, values in self.auxiliary:
+                _check_int32(name, values)
+                ds[name][:] = values.astype(np.int32)
             if self.global_vars:
                 ds["name_glo_var"][:] = _char_array(self.global_vars, _LEN_NAME)
             if self.nodal_vars:
@@ -454,9 +494,9 @@ class ExodusWriter:
                 if a is None:
                     raise ValueError(f"element variable {name}: no values for block {blk.block_id}")
                 a = np.asarray(a, dtype=np.float64)
-                if a.shape != (blk.nodes.size,):
+                if a.shape != (blk.size,):
                     raise ValueError(
-                        f"element variable {name}, block {blk.block_id}: expected shape ({blk.nodes.size},), got {a.shape}"
+                        f"element variable {name}, block {blk.block_id}: expected shape ({blk.size},), got {a.shape}"
                     )
                 row.append(a)
             elem_vals.append(row)
@@ -474,6 +514,59 @@ class ExodusWriter:
         self._time[k] = float(time)
         ds.sync()
         self._num_steps = k + 1
+
+    # ------------------------------------------------------------------ slices (a deferred writer's)
+    def write_nodes(self, start: int, coords: np.ndarray, node_num_map: np.ndarray) -> None:
+        """Nodes start..start + len(coords): their (m, 3) coordinates and 1-based IDs."""
+        ds = self._open_ds()
+        stop = start + len(coords)
+        for j, c in enumerate("xyz"):
+            ds[f"coord{c}"][start:stop] = coords[:, j]
+        _check_int32("node_num_map", node_num_map)
+        ds["node_num_map"][start:stop] = np.asarray(node_num_map).astype(np.int32)
+
+    def write_block(self, b: int, start: int, nodes: np.ndarray, node_num_map: np.ndarray) -> None:
+        """Elements start..start + len(nodes) of block ``b`` (0-based): their 0-based nodes and
+        the 1-based IDs of those nodes (``elem_num_map``)."""
+        ds = self._open_ds()
+        stop = start + len(nodes)
+        ds[f"connect{b + 1}"][start:stop] = (np.asarray(nodes) + 1).astype(np.int32)[:, None]
+        at = int(self.block_starts[b])
+        ds["elem_num_map"][at + start:at + stop] = np.asarray(node_num_map).astype(np.int32)
+
+    def write_node_set(self, k: int, start: int, nodes: np.ndarray) -> None:
+        """Entries start..start + len(nodes) of node set ``k`` (0-based): 0-based nodes."""
+        self._open_ds()[f"node_ns{k + 1}"][start:start + len(nodes)] = (np.asarray(nodes) + 1).astype(np.int32)
+
+    def write_nodal_slice(self, step: int, i: int, start: int, values: np.ndarray) -> None:
+        """Nodes start..start + len(values) of nodal variable ``i`` at ``step`` (0-based)."""
+        self._nod[i][step, start:start + len(values)] = values
+
+    def write_element_slice(self, step: int, i: int, b: int, start: int, values: np.ndarray) -> None:
+        """Elements start..start + len(values) of element variable ``i`` in block ``b``."""
+        self._elem[i][b][step, start:start + len(values)] = values
+
+    def end_step(self, step: int, time: float, glob: Sequence[float]) -> None:
+        """Finish step ``step`` (the next one, its slices written): its time and global values;
+        the file is readable with it."""
+        if step != self._num_steps:
+            raise ValueError(f"{self.path}: step {step} ended after {self._num_steps}")
+        if self.global_vars:
+            self._glo[step, :] = np.asarray(glob, dtype=np.float64)
+        self._time[step] = float(time)
+        self._open_ds().sync()
+        self._num_steps = step + 1
+
+    def set_attribute(self, name: str, value: int) -> None:
+        """A global int32 attribute outside Exodus's own (a piece's frames to follow)."""
+        ds = self._open_ds()
+        ds.setncattr(name, np.int32(value))
+        ds.sync()
+
+    def _open_ds(self) -> netCDF4.Dataset:
+        if self._ds is None:
+            raise ValueError(f"{self.path}: the Exodus writer is closed")
+        return self._ds
 
     def close(self) -> None:
         """Close the file (idempotent)."""
