@@ -44,6 +44,8 @@ class Verlet(Solver):
     Params = VerletSection
     #: the placement of the run in progress (``steps``), None before it starts
     placed: Placement | None = None
+    #: (simulation, its critical time step estimate), once computed
+    _critical: tuple | None = None
 
     @classmethod
     def explicit_step(cls, params: VerletSection) -> tuple[float | None, float | None]:
@@ -57,7 +59,7 @@ class Verlet(Solver):
     def time_step(self, sim, *, warn: bool = True) -> tuple[float, float]:
         """(dt used, critical estimate)."""
         p = self.params.verlet
-        dt_crit = sim.critical_time_step()
+        dt_crit = self._estimate(sim)
         dt = p.fixed_dt if p.fixed_dt is not None else dt_crit
         if p.safety_factor is not None:
             dt = dt * p.safety_factor
@@ -132,6 +134,13 @@ class Verlet(Solver):
             f"estimate {dt_crit:.4g}) is above the stable limit measured on the model, at most {limit:.4g} "
             f"({limit / dt_crit:.3g} x the estimate; {iterations} power iterations on its forces); use {fit}"
         )
+
+    def _estimate(self, sim) -> float:
+        """The critical time step estimate of ``sim``'s reference configuration (one bond pass),
+        computed once per section: its plan (planned_steps) and its run (steps) share it."""
+        if self._critical is None or self._critical[0] is not sim:
+            self._critical = (sim, sim.critical_time_step())
+        return self._critical[1]
 
     def planned_steps(self, sim) -> int:
         return self._steps(sim, self.time_step(sim, warn=False)[0])

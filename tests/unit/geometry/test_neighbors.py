@@ -351,6 +351,7 @@ def test_row_runs_counts_breaks_in_consecutive_storage():
     neighbors = np.array([1, 2, 4, 0, 2], dtype=np.int32)
     assert row_runs(offsets, neighbors, np.arange(5, dtype=np.int64)) == 2 + 2
     assert row_runs(offsets, neighbors, np.array([0, 4, 3, 2, 1], dtype=np.int64)) == 3 + 2
+    assert row_runs(offsets, neighbors, np.arange(5, dtype=np.int64), 2) == 2 + 0  # rows 0 and 2 of a sample
 
 
 def test_a_serial_lattice_numbered_axis_by_axis_is_stored_by_id_else_along_the_curve():
