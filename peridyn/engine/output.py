@@ -402,25 +402,28 @@ class OutputWriter:
         self.frames += 1
 
     def _write_piece(self, t: float) -> None:
-        """A frame of this rank's points in its piece (several ranks: no gather)."""
-        sim, piece = self.sim, self.piece
+        """A frame of this rank's points in its piece (several ranks: no gather), one column at
+        a time (a column of the rank's points is the most it copies)."""
+        sim, piece, w = self.sim, self.piece, self._writer
         n_owned = sim.num_owned
-        cache: dict[str, np.ndarray] = {}
-
-        def rows(v) -> np.ndarray:
-            if v.name not in cache:
-                cache[v.name] = piece.values(sim.fields[v.name][:n_owned])
-            return cache[v.name]
-
-        nodal = {cname: (rows(v) if rows(v).ndim == 1 else rows(v)[:, k]) for v, cname, k in self.nodal}
-        element = {}
-        for v, cname, k in self.element:
-            col = rows(v) if rows(v).ndim == 1 else rows(v)[:, k]
-            element[cname] = [c if has else None for c, has in zip(piece.block_values(col), self.manager.blocks_with(v.name))]
-        glob = {cname: float(sim.fields[v.name][k]) for v, cname, k in self.glob}
         self._check_finite(t)
-        with self._writing(t):
-            self._writer.write_step(t, nodal=nodal, element=element, glob=glob)
+        glob = [float(sim.fields[v.name][k]) for v, _, k in self.glob]
+        if piece.num_nodes:
+            step = w.num_steps
+
+            def column(v, k) -> np.ndarray:
+                data = sim.fields[v.name][:n_owned]
+                return piece.values(data if data.ndim == 1 else data[:, k])
+
+            with self._writing(t):
+                for i, (v, _, k) in enumerate(self.nodal):
+                    w.write_nodal_slice(step, i, 0, column(v, k))
+                for i, (v, _, k) in enumerate(self.element):
+                    blocks = piece.block_values(column(v, k))
+                    for b, (values, has) in enumerate(zip(blocks, self.manager.blocks_with(v.name))):
+                        if has and values.size:
+                            w.write_element_slice(step, i, b, 0, values)
+                w.end_step(step, t, glob)
         self.frames += 1
 
     @contextlib.contextmanager
