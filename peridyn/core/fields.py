@@ -80,6 +80,9 @@ class FieldStore:
         self._np1: dict[str, np.ndarray] = {}
         self._n: dict[str, np.ndarray] = {}
         self._lazy: dict[str, Callable[[np.ndarray], None]] = {}
+        #: the fields declared lazy: constants the store fills itself from the reference
+        #: configuration, whenever first read (a checkpoint need not hold them)
+        self.derived: set[str] = set()
 
     # declaration -----------------------------------------------------------------------------
     def declare(self, spec: FieldSpec) -> None:
@@ -112,6 +115,7 @@ class FieldStore:
             raise ValueError(f"field {spec.name}: only a new constant field can be lazy")
         self.specs[spec.name] = spec
         self._lazy[spec.name] = fill
+        self.derived.add(spec.name)
 
     def allocated(self, name: str) -> bool:
         """Whether the field's array exists (a lazy field before its first read does not)."""

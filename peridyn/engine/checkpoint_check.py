@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any, Callable, TypeVar
 
 import numpy as np
+from numba import njit, uint64
 
 from ..core.errors import InputError
 from ..core.fields import Relation, Temporal
@@ -180,11 +181,14 @@ def _check_meta(path: Path, meta: dict) -> None:
 
 
 # -- checking against the model --------------------------------------------------------------------
-def check_checkpoint(sim, writers: list, path: Path, meta: dict, arrays: dict[str, np.ndarray], carry: bool) -> None:
+def check_checkpoint(sim, writers: list, path: Path, meta: dict, arrays: dict[str, np.ndarray], carry: bool,
+                     digest: str | None = None) -> None:
     """Every array the restart will read from ``arrays`` into ``sim``: present, of this model's
     dtype and shape, finite where a state cannot be otherwise; the outputs it appends to there
     (``writers``: the run's output files).
-    ``carry``: another deck's final state, whose fields this model shares are taken."""
+    ``carry``: another deck's final state, whose fields this model shares are taken.
+    ``digest``: this model's :func:`bond_digest` (computed by every rank before), for a
+    checkpoint that holds one instead of bond keys."""
     comm = sim.comm
     n, total, bonds = sim.num_owned, sim.num_global, sim.num_bonds_global
     ghosts = sim.num_local - n
@@ -214,7 +218,7 @@ def check_checkpoint(sim, writers: list, path: Path, meta: dict, arrays: dict[st
         if same:
             array(f"r{comm.rank}/{key}", (ghosts,) + tail, dtype, finite, exact)
 
-    declared = {name: store.specs[name] for name in store.names()}
+    declared = {name: store.specs[name] for name in store.names() if name not in store.derived}
     kinds = {name: "bond" if s.relation is Relation.BOND else "global" if s.relation is Relation.GLOBAL else "point"
              for name, s in declared.items()}
     if not carry:
@@ -246,7 +250,10 @@ def check_checkpoint(sim, writers: list, path: Path, meta: dict, arrays: dict[st
             else:
                 bond_fields = True
                 array(key, (bonds,) + tail, target.dtype, finite, exact=not carry)
-    if bond_fields or not carry:
+    if "bond_digest" in meta and not bond_fields:
+        if not carry and meta["bond_digest"] != digest:
+            raise refusal(path, "its bonds are not this model's", "restart with the deck and mesh that wrote it")
+    elif bond_fields or not carry:
         _check_bond_keys(sim, path, array("bond_keys", (bonds,), np.dtype(np.int64), False))
     if "acceleration" in arrays or (meta["step"] > 0 and not carry):
         point("acceleration", (3,), np.dtype(np.float64), True)
@@ -315,6 +322,32 @@ def _output_mismatch(w, source: Path, frames: int, num_nodes: int) -> str | None
     except Exception as exc:  # not netCDF, torn, another program's file
         return f"not a readable Exodus file ({str(exc)[:80] or type(exc).__name__})"
     return None
+
+
+@njit(cache=True)
+def _digest_kernel(n, offsets, neighbors, mothership, total):
+    """sum over the bonds of rows 0..n of splitmix64(i * total + j) (mothership indices), mod 2^64."""
+    acc = uint64(0)
+    for i in range(n):
+        row = uint64(mothership[i]) * uint64(total)
+        for b in range(offsets[i], offsets[i + 1]):
+            z = row + uint64(mothership[neighbors[b]]) + uint64(0x9E3779B97F4A7C15)
+            z = (z ^ (z >> uint64(30))) * uint64(0xBF58476D1CE4E5B9)
+            z = (z ^ (z >> uint64(27))) * uint64(0x94D049BB133111EB)
+            acc += z ^ (z >> uint64(31))
+    return acc
+
+
+def bond_digest(sim) -> str:
+    """An order-free digest of the model's bonds, for a checkpoint without bond fields (which
+    then needs no bond keys): the sum mod 2^64 of a mixed (splitmix64) hash of every bond's key
+    i * num_global + j over every rank, as 16 hex digits; one pass, nothing allocated per bond.
+    Collective."""
+    nl = sim.bonds
+    local = int(_digest_kernel(sim.num_owned, nl.offsets, nl.neighbors, np.ascontiguousarray(sim.mothership_of_local, dtype=np.int64),
+                               sim.num_global))
+    total = sum(sim.comm.allgather(local)) if sim.comm.size > 1 else local
+    return f"{total % (1 << 64):016x}"
 
 
 def bond_keys(sim) -> np.ndarray:

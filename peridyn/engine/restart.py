@@ -6,7 +6,8 @@ A checkpoint is one ``.npz`` file holding everything the rest of the run depends
 
 * every allocated field, NP1 and N of two-step ones: point fields as (num_global, ...) rows,
   bond fields as rows sorted by the key ``i * num_global + j`` of the bond's two mothership
-  indices (``bond_keys``), global fields as they are;
+  indices (``bond_keys``; a model without bond fields stores only their order-free digest,
+  ``bond_digest``, and gathers nothing of its bonds), global fields as they are;
 * the acceleration of the last dynamic step; under MPI each rank's ghost rows as well
   (``r<rank>/...``), so a restart on the same number of ranks continues bit for bit;
 * time, the solver section and step, every output writer's counter and frame count, the energy
@@ -42,7 +43,7 @@ from ..core.errors import InputError, OutputWriteError, PeridynError
 from ..core.fields import Relation, Temporal
 from ..core.services import OutputFiles
 from ..core.state import SolverState
-from .checkpoint_check import FORMAT, bond_keys as _bond_keys
+from .checkpoint_check import FORMAT, bond_digest, bond_keys as _bond_keys
 
 log = logging.getLogger("peridyn.restart")
 
@@ -269,16 +270,19 @@ class Checkpoints:
                     for r, g in enumerate(ghosts):
                         arrays[f"r{r}/{key}"] = g
 
-        keys = _bond_keys(sim)
-        gathered = comm.gather(keys)
-        order = None
-        if root:
-            all_keys = np.concatenate(gathered)
-            order = np.argsort(all_keys, kind="stable")
-            arrays["bond_keys"] = all_keys[order]
         kinds: dict[str, str] = {}
         store = sim.fields
-        for name in sorted(store.names()):
+        order, digest = None, None
+        names = sorted(nm for nm in store.names() if nm not in store.derived)  # derived ones are refilled at set-up
+        if any(store.specs[nm].relation is Relation.BOND for nm in names):
+            gathered = comm.gather(_bond_keys(sim))
+            if root:
+                all_keys = np.concatenate(gathered)
+                order = np.argsort(all_keys, kind="stable")
+                arrays["bond_keys"] = all_keys[order]
+        else:  # no bond field to place: the bonds are checked by their digest, nothing gathered
+            digest = bond_digest(sim)
+        for name in names:
             spec = store.specs[name]
             layers = [("np1", store[name])] + ([("n", store.n(name))] if spec.temporal is Temporal.TWO_STEP else [])
             for which, arr in layers:
@@ -328,6 +332,8 @@ class Checkpoints:
             "final_time": float(sim.deck.solvers[-1].params.final_time) if sim.deck.solvers else None,
             "relations": {nm: store.specs[nm].relation.name for nm in kinds},
         }
+        if digest is not None:
+            meta["bond_digest"] = digest
         return meta, arrays
 
     # -- reading ---------------------------------------------------------------------------------
@@ -337,10 +343,12 @@ class Checkpoints:
         every rank) for a checkpoint this run cannot continue, before anything changes."""
         from .checkpoint_check import agree, check_checkpoint, read_checkpoint
 
+        digest = bond_digest(self.sim)  # collective: before any rank may refuse
+
         def checked() -> tuple[dict, dict, bool]:
             meta, arrays = read_checkpoint(path)
             carry = self._check(path, meta)
-            check_checkpoint(self.sim, self.files.writers, path, meta, arrays, carry)
+            check_checkpoint(self.sim, self.files.writers, path, meta, arrays, carry, digest)
             return meta, arrays, carry
 
         meta, data, carry = agree(self.sim.comm, checked)
@@ -396,6 +404,8 @@ class Checkpoints:
         store = sim.fields
         keys = None
         for name, kind in meta["fields"].items():
+            if name in store.derived:
+                continue  # refilled from the reference configuration (an older checkpoint holds it)
             if carry and (name not in store or store.specs[name].relation.name != meta.get("relations", {}).get(name, store.specs[name].relation.name)):
                 continue
             two_step = store.specs[name].temporal is Temporal.TWO_STEP and name in meta["two_step"]

@@ -331,3 +331,37 @@ def test_a_finite_value_too_large_to_square_is_refused_naming_the_array(cube_run
     shutil.copy(bad, out2 / "huge.npz")
     assert run(out2, "--restart", str(out2 / "huge.npz")) == ExitCode.INPUT_ERROR
     assert f"{key} holds a value of magnitude 1e+308" in capsys.readouterr().err
+
+
+
+ELASTIC = CUBE.replace('    Damage Model: "D"\n', "").replace("    Damage: true\n", "")
+
+
+def test_a_model_without_bond_fields_checks_its_bonds_by_digest_and_gathers_no_key(tmp_path, capsys):
+    """No bond field to place: no bond keys are stored (they were most of such a checkpoint), a
+    digest of the bonds is; the run continues from it to the same results, and a digest that is
+    not this model's bonds' is refused in one line."""
+    from peridyn.io.exodus_reader import read_results
+
+    assert ELASTIC.count("Damage") == 2  # the damage model is defined, no block uses it, no Damage output
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "cube.yaml").write_text(ELASTIC)
+    assert run(out) == ExitCode.OK
+    ckpt = out / "restart" / "cube.000.0000000010.npz"
+    with np.load(ckpt) as data:
+        stored = {k: data[k] for k in data.files}
+    meta = json.loads(str(stored["meta"]))
+    assert "bond_keys" not in stored and len(meta["bond_digest"]) == 16
+    whole = read_results(out / "cube.e")
+    assert run(out, "--restart", str(ckpt)) == ExitCode.OK
+    again = read_results(out / "cube.e")
+    np.testing.assert_array_equal(again["times"], whole["times"])
+    np.testing.assert_array_equal(again["nodal"]["DisplacementX"], whole["nodal"]["DisplacementX"])
+    flipped = dict(meta, bond_digest=f"{int(meta['bond_digest'], 16) ^ 1:016x}")
+    bad = out / "edited.npz"
+    np.savez(bad, **{**stored, "meta": np.array(json.dumps(flipped))})
+    capsys.readouterr()
+    assert run(out, "--restart", str(bad)) == ExitCode.INPUT_ERROR
+    lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "its bonds are not this model's" in lines[0], lines

@@ -25,13 +25,14 @@ from peridyn.io.exodus_reader import read_results
 from peridyn.io.exodus_writer import ExodusBlock, ExodusWriter, keep_steps
 
 
-def flyby_tree(final_time: float = 0.01, frequency: int = 6, keep: int = 100) -> dict:
+def flyby_tree(final_time: float = 0.01, frequency: int = 6, keep: int = 100, damage: bool = True) -> dict:
     """A box flying past a row of boxes it grazes: contact with friction (searches every 7
-    steps, pair lists rebuilt in between), damage in the row, 36 steps for final_time 0.01."""
+    steps, pair lists rebuilt in between), damage in the row (``damage=False``: none, so no bond
+    field), 36 steps for final_time 0.01."""
     shapes = {f"B{k}": {"Shape": "Box", "Block": "block_1", "Min": [4.0 * k, 0.0, 0.0], "Max": [4.0 * k + 3.0, 3.0, 3.0], "Spacing": 1.0}
               for k in range(3)}
     shapes["Fly"] = {"Shape": "Box", "Block": "block_2", "Min": [-4.0, 0.4, 2.2], "Max": [-1.0, 2.4, 4.2], "Spacing": 1.0}
-    return {
+    tree = {
         "Discretization": {"Type": "Shapes", "Omit Bonds Between Blocks": "All", "Shapes": shapes},
         "Materials": {"M": {"Material Model": "Elastic", "Density": 1000.0, "Bulk Modulus": 1e9, "Shear Modulus": 6e8}},
         "Damage Models": {"D": {"Damage Model": "Critical Stretch", "Critical Stretch": 0.002}},
@@ -47,6 +48,9 @@ def flyby_tree(final_time: float = 0.01, frequency: int = 6, keep: int = 100) ->
         "History Output": {"Output Filename": "energy", "Output Frequency": 2, "Output Variables": {"Global_Kinetic_Energy": True}},
         "Restart": {"Restart Frequency": frequency, "Keep": keep},
     }
+    if not damage:
+        del tree["Damage Models"], tree["Blocks"]["Row"]["Damage Model"], tree["Output"]["Output Variables"]["Damage"]
+    return tree
 
 
 def write_deck(folder: Path, **kw) -> Path:
