@@ -263,11 +263,10 @@ def cmd_merge(args) -> int:
 
     _setup_logging(args.verbose - args.quiet)
     result = Path(args.result)
-    pieces = pieces_of(result)
+    size, pieces = pieces_of(result)
     if not pieces:
         raise InputError(f"no pieces {result.name}.N.r beside it", file=str(result),
                          fix="give the name without .N.r of a file that ran on N ranks with Merge Rank Files: false")
-    size = int(pieces[0].name.rsplit(".", 2)[-2])
     if len(pieces) != size:
         have = {int(p.name.rsplit(".", 1)[-1]) for p in pieces}
         missing = [r for r in range(size) if r not in have]

@@ -493,35 +493,26 @@ class OutputWriter:
         if self.global_only:
             self._writer = ExodusWriter.global_only(self.partial_path, [c for _, c, _ in self.glob], append_after=self.resume_frames)
             return
-        truth = np.array([[has for has in self.manager.blocks_with(v.name)] for v, _, _ in self.element], dtype=bool).T.reshape(len(blocks), len(self.element))
         node_sets = [(name, members) for name, members in sorted(sim.node_sets.items())]
-        self._writer = ExodusWriter(
-            self.partial_path,
-            coords=disc.x,
-            node_num_map=disc.gid + 1,
-            blocks=blocks,
-            node_sets=node_sets,
-            nodal_vars=[c for _, c, _ in self.nodal],
-            element_vars=[c for _, c, _ in self.element],
-            global_vars=[c for _, c, _ in self.glob],
-            truth_table=truth,
-            append_after=self.resume_frames,
-        )
+        self._writer = ExodusWriter(self.partial_path, coords=disc.x, node_num_map=disc.gid + 1, blocks=blocks,
+                                    node_sets=node_sets, append_after=self.resume_frames, **self._variables())
+
+    def _variables(self) -> dict:
+        """The Exodus writer's variable names and truth table (which block has which element
+        variable), the same for the whole file and a rank's piece."""
+        truth = np.array([self.manager.blocks_with(v.name) for v, _, _ in self.element], dtype=bool).T.reshape(len(self.sim.blocks), len(self.element))
+        return {"nodal_vars": [c for _, c, _ in self.nodal], "element_vars": [c for _, c, _ in self.element],
+                "global_vars": [c for _, c, _ in self.glob], "truth_table": truth}
 
     def _open_piece(self) -> None:
-        from ..io.exodus_writer import ExodusBlock, ExodusWriter
-        from .output_pieces import APPEND_AFTER, RankPiece, piece_path
+        from .output_pieces import APPEND_AFTER, RankPiece, rank_file
 
         sim = self.sim
         self.piece = piece = RankPiece(sim)
         if not piece.num_nodes:
             self._writer = _NullWriter()
             return
-        truth = np.array([self.manager.blocks_with(v.name) for v, _, _ in self.element], dtype=bool).T.reshape(len(sim.blocks), len(self.element))
-        path = piece_path(self.partial_path, sim.comm.size, sim.comm.rank)
-        self._writer = piece.writer(path, ExodusBlock, ExodusWriter, nodal_vars=[c for _, c, _ in self.nodal],
-                                    element_vars=[c for _, c, _ in self.element], global_vars=[c for _, c, _ in self.glob],
-                                    truth_table=truth)
+        self._writer = piece.writer(rank_file(self.partial_path, sim.comm.size, sim.comm.rank), **self._variables())
         if self.resume_frames:
             self._writer.set_attribute(APPEND_AFTER, self.resume_frames)
 

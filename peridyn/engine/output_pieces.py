@@ -11,10 +11,8 @@ number of earlier frames they follow, for a restart to merge them first).
 """
 from __future__ import annotations
 
-import glob
 import logging
 import os
-import re
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +20,8 @@ import numpy as np
 
 from ..core.errors import OutputWriteError
 from ..io.exodus_merge import NODE_ORDER, merge_pieces, node_set_order_name
+from ..io.exodus_pieces import numbered_files
+from ..io.exodus_writer import ExodusBlock, ExodusWriter
 
 log = logging.getLogger("peridyn.output")
 
@@ -29,37 +29,28 @@ log = logging.getLogger("peridyn.output")
 APPEND_AFTER = "peridyn_append_after"
 
 
-def piece_path(path: Path, size: int, rank: int) -> Path:
-    """Rank ``rank``'s piece of ``path`` on ``size`` ranks, as Peridigm names it (``NAME.e.N.r``)."""
+def rank_file(path: Path, size: int, rank: int) -> Path:
+    """The name rank ``rank`` of ``size`` writes its piece of ``path`` under, as Peridigm names
+    it (``NAME.e.N.r``)."""
     return path.with_name(f"{path.name}.{size}.{rank}")
 
 
-def _numbered(path: Path) -> dict[int, dict[int, Path]]:
-    """N -> r -> the file ``path.N.r`` (SEACAS's zero-padded r too) beside ``path``."""
-    found: dict[int, dict[int, Path]] = {}
-    pattern = re.compile(re.escape(path.name) + r"\.(\d+)\.(\d+)$")
-    for name in glob.glob(glob.escape(str(path)) + ".*.*"):
-        m = pattern.match(os.path.basename(name))
-        if m and int(m.group(2)) < int(m.group(1)):
-            found.setdefault(int(m.group(1)), {})[int(m.group(2))] = Path(name)
-    return found
-
-
-def pieces_of(path: Path) -> list[Path]:
-    """The pieces ``path.N.r`` beside ``path`` of the largest N found, in rank order; empty when
-    there are none."""
-    found = _numbered(path)
+def pieces_of(path: Path) -> tuple[int, list[Path]]:
+    """(N, the pieces ``path.N.r`` beside ``path`` in rank order) for the largest N found
+    (SEACAS's zero-padded ranks too); (0, []) when there are none."""
+    found = {n: {r: p for r, p in ranks.items() if r < n} for n, ranks in numbered_files(path).items()}
+    found = {n: ranks for n, ranks in found.items() if ranks}
     if not found:
-        return []
-    ranks = found[max(found)]
-    return [ranks[r] for r in sorted(ranks)]
+        return 0, []
+    size = max(found)
+    return size, [found[size][r] for r in sorted(found[size])]
 
 
 def drop_stale_pieces(partial: Path, size: int) -> None:
     """Remove the partial pieces ``partial.N.r`` an earlier stopped run left for another rank
     count (a run starting afresh replaces its partial output; a later restart must not take
     them for its own)."""
-    for count, ranks in _numbered(partial).items():
+    for count, ranks in numbered_files(partial).items():
         if count != size:
             for p in ranks.values():
                 p.unlink(missing_ok=True)
@@ -98,14 +89,15 @@ class RankPiece:
                 places.append((node_set_order_name(k), f"num_nod_ns{k + 1}", np.flatnonzero(mine)))
         return sets, places
 
-    def writer(self, path: Path, blocks_cls: Any, writer_cls: Any, **variables: Any) -> Any:
-        """The Exodus writer of this piece at ``path`` (its mesh written)."""
+    def writer(self, path: Path, **variables: Any) -> ExodusWriter:
+        """The Exodus writer of this piece at ``path`` (its mesh written); ``variables``: the
+        writer's variable names and truth table."""
         sim = self.sim
         rows = self.order
-        blocks = [blocks_cls(blk.block_id, blk.name, np.arange(self.starts[b], self.starts[b + 1]))
+        blocks = [ExodusBlock(blk.block_id, blk.name, np.arange(self.starts[b], self.starts[b + 1]))
                   for b, blk in enumerate(sim.blocks)]
         sets, places = self.node_sets()
-        return writer_cls(path, coords=sim.fields["Model_Coordinates"][rows], node_num_map=sim.gid[rows] + 1,
+        return ExodusWriter(path, coords=sim.fields["Model_Coordinates"][rows], node_num_map=sim.gid[rows] + 1,
                           blocks=blocks, node_sets=sets, auxiliary=[(NODE_ORDER, "num_nodes", self.keys)] + places,
                           **variables)
 
@@ -144,7 +136,7 @@ def close_pieces(writer: Any, complete: bool) -> None:
     sim = writer.sim
     comm = sim.comm
     size, rank = comm.size, comm.rank
-    partial = piece_path(writer.partial_path, size, rank)
+    partial = rank_file(writer.partial_path, size, rank)
     if not complete:
         log.warning("the frames of this run are in the pieces %s.%d.*; %s is left as it was", writer.partial_path.name,
                     size, writer.path.name)
@@ -152,11 +144,11 @@ def close_pieces(writer: Any, complete: bool) -> None:
     wrote = comm.allgather(writer.piece is not None and writer.piece.num_nodes > 0)
     if not writer.entry.params.merge_rank_files:
         if wrote[rank]:
-            os.replace(partial, piece_path(writer.path, size, rank))
+            os.replace(partial, rank_file(writer.path, size, rank))
         return
     failure = None
     if comm.is_root:
-        pieces = [piece_path(writer.partial_path, size, r) for r in range(size) if wrote[r]]
+        pieces = [rank_file(writer.partial_path, size, r) for r in range(size) if wrote[r]]
         try:
             merge_pieces(pieces, writer.partial_path, append_after=writer.resume_frames or None)
             os.replace(writer.partial_path, writer.path)
@@ -176,7 +168,7 @@ def recover_pieces(partial: Path, *, final: bool = False) -> int | None:
     there were no pieces). ``final``: ``partial`` is ``NAME.e`` and its pieces the kept ones of a
     finished run (joined only where ``NAME.e`` is missing). Rank 0, before a restart keeps the
     checkpoint's frames."""
-    pieces = pieces_of(partial)
+    _, pieces = pieces_of(partial)
     if not pieces or (final and partial.is_file()):
         return None
     import netCDF4

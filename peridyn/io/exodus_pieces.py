@@ -23,7 +23,7 @@ import numpy as np
 from ..core.discretization import DiscretizationPart
 from ..core.errors import InputError, is_file
 
-__all__ = ["find_pieces", "piece_counts", "piece_path", "read_exodus_piece"]
+__all__ = ["find_pieces", "numbered_files", "piece_counts", "piece_path", "read_exodus_piece"]
 
 
 def piece_path(base: Path, size: int, rank: int) -> Path:
@@ -60,14 +60,22 @@ def piece_counts(name: str, deck_dir: Path) -> list[int]:
     pieces there are for another number of ranks)."""
     counts: set[int] = set()
     for base in _places(name, deck_dir):
-        folder = base.parent
-        if not folder.is_dir():
-            continue
-        for f in folder.glob(glob.escape(base.name) + ".*.*"):
-            parts = f.name[len(base.name) + 1:].split(".")
-            if len(parts) == 2 and parts[0].isdigit() and parts[1].isdigit() and int(parts[0]) > 1:
-                counts.add(int(parts[0]))
+        counts.update(n for n in numbered_files(base) if n > 1)
     return sorted(counts)
+
+
+def numbered_files(base: Path) -> dict[int, dict[int, Path]]:
+    """N -> r -> the file ``base.N.r`` beside ``base`` (r as written, SEACAS's zero-padded too),
+    for every such name there."""
+    found: dict[int, dict[int, Path]] = {}
+    folder = base.parent
+    if not folder.is_dir():
+        return found
+    for f in folder.glob(glob.escape(base.name) + ".*.*"):
+        parts = f.name[len(base.name) + 1:].split(".")
+        if len(parts) == 2 and parts[0].isdigit() and parts[1].isdigit():
+            found.setdefault(int(parts[0]), {})[int(parts[1])] = f
+    return found
 
 
 def _node_gids(ds, num_nodes: int, file: str) -> np.ndarray:

@@ -78,7 +78,7 @@ class ExodusBlock:
 
     @property
     def size(self) -> int:
-        return int(self.nodes) if isinstance(self.nodes, (int, np.integer)) else int(np.size(self.nodes))
+        return _size(self.nodes)
 
 
 def _char_array(strings: Sequence[str], width: int) -> np.ndarray:

@@ -7,7 +7,7 @@ import netCDF4
 import numpy as np
 import pytest
 
-from peridyn.engine.output_pieces import RankPiece, pieces_of, piece_path, recover_pieces
+from peridyn.engine.output_pieces import RankPiece, pieces_of, rank_file, recover_pieces
 from peridyn.io.exodus_merge import NODE_ORDER, merge_pieces
 from peridyn.io.exodus_writer import ExodusBlock, ExodusWriter
 
@@ -54,7 +54,7 @@ def write_pieces(m, base, ranks: int, owner, steps=STEPS):
                               blocks=[SimpleNamespace(block_id=b + 1, name=f"block_{b + 1}") for b in range(3)],
                               node_sets=m.sets, fields={"Model_Coordinates": m.x[mine]}, gid=m.gid[mine])
         piece = RankPiece(sim)
-        with piece.writer(piece_path(base, ranks, r), ExodusBlock, ExodusWriter, nodal_vars=NODAL,
+        with piece.writer(rank_file(base, ranks, r), nodal_vars=NODAL,
                           element_vars=ELEMENT, global_vars=GLOBAL, truth_table=TRUTH) as w:
             for s in range(steps if np.isscalar(steps) else steps[r]):
                 element = {}
@@ -81,7 +81,7 @@ def test_peridyns_pieces_join_to_the_one_process_file_bit_for_bit(tmp_path, rank
     owner = np.random.default_rng(2).integers(0, ranks, N)
     owner[:ranks] = np.arange(ranks)
     write_pieces(m, tmp_path / "run.e", ranks, owner)
-    pieces = pieces_of(tmp_path / "run.e")
+    pieces = pieces_of(tmp_path / "run.e")[1]
     assert [p.name for p in pieces] == [f"run.e.{ranks}.{r}" for r in range(ranks)]
     with netCDF4.Dataset(pieces[-1]) as ds:  # a piece holds its own points only
         assert len(ds.dimensions["num_nodes"]) == int(np.sum(owner == ranks - 1)) and NODE_ORDER in ds.variables
@@ -97,13 +97,13 @@ def test_peridigms_pieces_are_placed_by_global_id_with_node_sets_in_ascending_or
     whole_file(m_sorted, whole)
     owner = np.arange(N) % 2
     write_pieces(m, tmp_path / "run.e", 2, owner)
-    for p in pieces_of(tmp_path / "run.e"):  # drop what peridyn adds
+    for p in pieces_of(tmp_path / "run.e")[1]:  # drop what peridyn adds
         with netCDF4.Dataset(p, "a") as ds:
             ds.renameVariable(NODE_ORDER, "unused_order")
             for k in range(1, 4):
                 if f"peridyn_ns_order{k}" in ds.variables:
                     ds.renameVariable(f"peridyn_ns_order{k}", f"unused_ns{k}")
-    merge_pieces(pieces_of(tmp_path / "run.e"), tmp_path / "run.e", chunk=5)
+    merge_pieces(pieces_of(tmp_path / "run.e")[1], tmp_path / "run.e", chunk=5)
     same_file(tmp_path / "run.e", whole)
 
 
@@ -111,12 +111,12 @@ def test_pieces_of_other_runs_or_a_missing_piece_are_refused(tmp_path):
     m = model()
     owner = np.arange(N) % 3
     write_pieces(m, tmp_path / "a.e", 3, owner)
-    pieces = pieces_of(tmp_path / "a.e")
+    pieces = pieces_of(tmp_path / "a.e")[1]
     with pytest.raises(ValueError, match="do not hold node"):
         merge_pieces(pieces[:2], tmp_path / "out.e")
     write_pieces(m, tmp_path / "b.e", 3, owner, steps=[3, 2, 3])
     with pytest.raises(ValueError, match="frames"):
-        merge_pieces(pieces_of(tmp_path / "b.e"), tmp_path / "out.e")
+        merge_pieces(pieces_of(tmp_path / "b.e")[1], tmp_path / "out.e")
 
 
 def test_a_killed_runs_pieces_are_joined_to_the_frames_every_piece_holds(tmp_path):
@@ -124,7 +124,7 @@ def test_a_killed_runs_pieces_are_joined_to_the_frames_every_piece_holds(tmp_pat
     owner = np.arange(N) % 3
     write_pieces(m, tmp_path / "run.partial.e", 3, owner, steps=[3, 2, 3])
     assert recover_pieces(tmp_path / "run.partial.e") == 2
-    assert not pieces_of(tmp_path / "run.partial.e")
+    assert not pieces_of(tmp_path / "run.partial.e")[1]
     with netCDF4.Dataset(tmp_path / "run.partial.e") as ds:
         assert len(ds.dimensions["time_step"]) == 2
         np.testing.assert_array_equal(np.asarray(ds["vals_nod_var1"][1]), m.values["DisplacementX"][1])
@@ -138,7 +138,7 @@ def test_peridyn_merge_joins_pieces_and_names_a_result_without_pieces_in_one_lin
     write_pieces(m, tmp_path / "run.e", 2, np.arange(N) % 2)
     assert main(["merge", str(tmp_path / "run.e"), "-q"]) == 0
     same_file(tmp_path / "run.e", tmp_path / "whole.e")
-    assert len(pieces_of(tmp_path / "run.e")) == 2  # kept, as epu keeps them
+    assert len(pieces_of(tmp_path / "run.e")[1]) == 2  # kept, as epu keeps them
     before = (tmp_path / "run.e").read_bytes()
     assert main(["merge", str(tmp_path / "other.e")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
