@@ -172,3 +172,13 @@ def test_xml_deck(tmp_path):
         load_deck(p)
     (line,) = info.value.one_line().splitlines()
     assert "deck.xml" in line and "Materials > M > Shear Modulus" in line and "'lots'" in line
+
+
+@pytest.mark.parametrize("value, says", [('"maybe"', "true or false"), ("3", "true or false"),
+                                         ("[true]", "a sequence cannot hold"), ("nan", "must be finite")])
+def test_merge_rank_files_takes_only_true_or_false(tmp_path, value, says):
+    text = GOOD.replace("    Output Frequency: 1\n", f"    Output Frequency: 1\n    Merge Rank Files: {value}\n")
+    assert "Merge Rank Files" in text
+    (line,) = errors_of(tmp_path, text)
+    assert "Merge Rank Files" in line and says in line, line
+    assert load_deck(write(tmp_path, text.replace(f"Merge Rank Files: {value}", "Merge Rank Files: false"))).outputs[0].params.merge_rank_files is False
