@@ -112,6 +112,9 @@ def read_checkpoint(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
     if not isinstance(meta, dict):
         raise refusal(path, "its metadata is not a JSON object")
     _check_meta(path, meta)
+    gone = [k for k in meta.get("arrays", ()) if k not in arrays]
+    if gone:  # deleted or renamed: what the restart would silently compute afresh instead
+        raise refusal(path, f"lacks the array {gone[0]!r} it was written with")
     return meta, arrays
 
 
@@ -163,6 +166,8 @@ def _check_meta(path: Path, meta: dict) -> None:
          "a 'contact' entry that is neither null nor (capacity, stats)")
     monitor = meta.get("monitor")
     need(monitor is None or isinstance(monitor, dict), "a 'monitor' entry that is neither null nor a table")
+    listed = meta.get("arrays", [])
+    need(isinstance(listed, list) and all(isinstance(k, str) for k in listed), "an 'arrays' entry that is not a list of names")
     if meta["step"] > 0:  # a Verlet section continued after this step reads the energy monitor
         need(isinstance(monitor, dict), "no energy monitor for the step it was written after")
         for key in MONITOR_NUMBERS:

@@ -334,6 +334,8 @@ class Checkpoints:
         }
         if digest is not None:
             meta["bond_digest"] = digest
+        if root:
+            meta["arrays"] = sorted(arrays)  # every one is required back (a deleted one would be computed afresh)
         return meta, arrays
 
     # -- reading ---------------------------------------------------------------------------------

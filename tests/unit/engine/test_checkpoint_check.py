@@ -365,3 +365,19 @@ def test_a_model_without_bond_fields_checks_its_bonds_by_digest_and_gathers_no_k
     assert run(out, "--restart", str(bad)) == ExitCode.INPUT_ERROR
     lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
     assert len(lines) == 1 and "its bonds are not this model's" in lines[0], lines
+
+
+@pytest.mark.parametrize("how", ["deleted", "renamed"])
+def test_an_array_missing_from_a_section_start_checkpoint_is_refused(cube_run, tmp_path, capsys, how):
+    """At a section's start the acceleration is one a restart could compute afresh: its absence
+    must still be refused, as the checkpoint lists every array it was written with."""
+    out = fresh(cube_run, tmp_path)
+    with np.load(out / "restart" / "cube.001.0000000000.npz") as data:
+        stored = {k: data[k] for k in data.files}
+    assert "acceleration" in json.loads(str(stored["meta"]))["arrays"]
+    moved = stored.pop("acceleration")
+    if how == "renamed":
+        stored["acceleration_x"] = moved
+    bad = out / "gone.npz"
+    np.savez(bad, **stored)
+    refused(out, bad, capsys)
